@@ -1,0 +1,31 @@
+// gemm.h — general matrix multiply, row-major: C = alpha * op(A) * op(B) + beta * C.
+//
+// op(A) is M×K (A is M×K, or K×M when trans_a), op(B) is K×N (B is K×N, or N×K when trans_b); lda/ldb/ldc are
+// row strides in elements. float: our packed-panel kernel with an AVX-512 micro-kernel chosen at run time
+// (AVX2+FMA fallback), OpenMP across blocks. double: a blocked kernel (used by gradchecks; speed secondary).
+// beta == 0 means C is written without being read (NaNs in C do not propagate).
+#pragma once
+#include <cstdint>
+
+namespace t2m {
+
+void gemm(bool trans_a, bool trans_b, int64_t M, int64_t N, int64_t K, float alpha, const float* A, int64_t lda,
+          const float* B, int64_t ldb, float beta, float* C, int64_t ldc);
+void gemm(bool trans_a, bool trans_b, int64_t M, int64_t N, int64_t K, double alpha, const double* A, int64_t lda,
+          const double* B, int64_t ldb, double beta, double* C, int64_t ldc);
+
+// Batched: for b in [0, batch): C_b = alpha * op(A_b) op(B_b) + beta * C_b with A_b = A + b*stride_a, etc.
+// A stride of 0 broadcasts one matrix over the batch. Threads split across the batch or within each GEMM.
+void gemm_batched(bool trans_a, bool trans_b, int64_t batch, int64_t M, int64_t N, int64_t K, float alpha,
+                  const float* A, int64_t lda, int64_t stride_a, const float* B, int64_t ldb, int64_t stride_b,
+                  float beta, float* C, int64_t ldc, int64_t stride_c);
+void gemm_batched(bool trans_a, bool trans_b, int64_t batch, int64_t M, int64_t N, int64_t K, double alpha,
+                  const double* A, int64_t lda, int64_t stride_a, const double* B, int64_t ldb, int64_t stride_b,
+                  double beta, double* C, int64_t ldc, int64_t stride_c);
+
+// Which float micro-kernel the dispatcher picked on this CPU: "avx512" or "avx2".
+const char* gemm_kernel_name();
+// Force a kernel (for tests/benchmarks): "avx512", "avx2" or "auto". Throws Error if the CPU lacks it.
+void gemm_force_kernel(const char* name);
+
+}  // namespace t2m
