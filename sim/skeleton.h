@@ -53,8 +53,10 @@ struct Motion {
 };
 
 // BVH (any channel order; position channels replace OFFSET components) -> canonical Motion.
-// Needs every canonical joint by name, each with 3 rotation channels or none (identity), and the parent chain of
-// the canonical joints in the file may pass through extra joints (e.g. joint_Root), whose transforms are folded in.
+// Needs every canonical joint by name with the canonical parent table; joints above Hips (e.g. joint_Root) have
+// their transforms folded into the Hips world transform; other extra joints are ignored. Any rotation channel
+// order/count (none = identity). Position channels move Hips (and the joints above it); for the other joints the
+// OFFSET is used (the data repeats OFFSET in their position channels).
 // fps = 1 / frame_time (the Bandai data is 30 fps; no resampling). pos is computed with sim FK from rot, offsets and
 // the Hips translation, so the Motion invariant holds exactly (up to float rounding).
 // Throws t2m::Error naming the file's missing joints / bad channel layout.
