@@ -1,0 +1,114 @@
+// engine.cpp — Variable::backward: reverse-topological walk of the tape with gradient accumulation.
+//
+// 1. Iterative depth-first search from the root collects every VariableImpl reachable through grad_fn inputs in
+//    post-order (inputs before the variables made from them); reversing it gives a topological order.
+// 2. Walking that order, each variable's incoming gradients have all been summed before its node runs.
+//    Leaves accumulate into .grad; non-leaves keep it only if they retain_grad().
+// 3. Without retain_graph each node releases its saved tensors right after running.
+#include <unordered_map>
+#include <unordered_set>
+
+#include "autograd/variable.h"
+#include "tensor/ops.h"
+
+namespace t2m::ag {
+
+namespace {
+
+std::string label(const VariableImpl& v) { return v.name.empty() ? std::string() : " '" + v.name + "'"; }
+
+// grad (may be undefined) += g; the first gradient is copied so .grad never aliases another tensor.
+void accumulate_into(Tensor& grad, const Tensor& g, const VariableImpl& v) {
+  if (!grad.defined() || grad.shape() != g.shape() || grad.dtype() != g.dtype()) {
+    grad = g.clone();
+    return;
+  }
+  (void)v;
+  add_(grad, g);
+}
+
+std::vector<VariableImpl*> post_order(VariableImpl* root) {
+  std::vector<VariableImpl*> order;
+  std::unordered_set<VariableImpl*> seen{root};
+  std::vector<std::pair<VariableImpl*, size_t>> stack{{root, 0}};
+  while (!stack.empty()) {
+    VariableImpl* v = stack.back().first;
+    size_t i = stack.back().second;
+    Node* n = v->grad_fn.get();
+    if (n && i < n->inputs.size()) {
+      stack.back().second = i + 1;
+      VariableImpl* in = n->inputs[i].get();
+      if (in && seen.insert(in).second) stack.push_back({in, 0});
+    } else {
+      order.push_back(v);
+      stack.pop_back();
+    }
+  }
+  return order;
+}
+
+}  // namespace
+
+void Variable::backward(const Tensor& seed, bool retain_graph) const {
+  VariableImpl* root = impl_.get();
+  if (!root) throw Error("backward: called on an undefined Variable");
+  if (!root->requires_grad)
+    throw Error("backward: variable" + label(*root) + " of shape " + shape_str(root->data.shape()) +
+                " does not require grad and has no grad_fn");
+  Tensor g0;
+  if (!seed.defined()) {
+    if (root->data.numel() != 1)
+      throw Error("backward: output" + label(*root) + " of shape " + shape_str(root->data.shape()) +
+                  " is not a scalar; pass a seed gradient of that shape");
+    g0 = Tensor::ones(root->data.shape(), root->data.dtype());
+  } else {
+    if (seed.shape() != root->data.shape() || seed.dtype() != root->data.dtype())
+      throw Error("backward: seed of shape " + shape_str(seed.shape()) + " (" + dtype_name(seed.dtype()) +
+                  ") does not match output shape " + shape_str(root->data.shape()) + " (" +
+                  dtype_name(root->data.dtype()) + ")");
+    g0 = seed;
+  }
+
+  std::vector<VariableImpl*> order = post_order(root);
+  std::unordered_map<VariableImpl*, Tensor> grads;
+  grads[root] = g0;
+  for (auto it = order.rbegin(); it != order.rend(); ++it) {
+    VariableImpl* v = *it;
+    Tensor g;
+    if (auto gi = grads.find(v); gi != grads.end()) {
+      g = std::move(gi->second);
+      grads.erase(gi);
+    }
+    Node* n = v->grad_fn.get();
+    if (!n) {
+      if (g.defined() && v->requires_grad) accumulate_into(v->grad, g, *v);
+      continue;
+    }
+    if (!g.defined()) {
+      if (!retain_graph) n->release();
+      continue;
+    }
+    if (n->released || !n->backward)
+      throw Error("backward: graph already freed at op '" + n->op +
+                  "'; pass retain_graph=true to the first backward() to run backward through it again");
+    if (v->retains_grad) accumulate_into(v->grad, g, *v);
+    std::vector<bool> need(n->inputs.size());
+    for (size_t i = 0; i < need.size(); ++i) need[i] = n->inputs[i] != nullptr;
+    std::vector<Tensor> gin = n->backward(g, need);
+    if (!retain_graph) n->release();
+    if (gin.size() != n->inputs.size())
+      throw Error("backward: op '" + n->op + "' returned " + std::to_string(gin.size()) + " gradients for " +
+                  std::to_string(n->inputs.size()) + " inputs");
+    for (size_t i = 0; i < gin.size(); ++i) {
+      VariableImpl* in = n->inputs[i].get();
+      if (!in || !gin[i].defined()) continue;
+      if (gin[i].shape() != n->input_shapes[i])
+        throw Error("backward: op '" + n->op + "' gave a gradient of shape " + shape_str(gin[i].shape()) +
+                    " for input " + std::to_string(i) + " of shape " + shape_str(n->input_shapes[i]));
+      Tensor& slot = grads[in];
+      slot = slot.defined() ? add(slot, gin[i]) : std::move(gin[i]);
+    }
+  }
+}
+
+}  // namespace t2m::ag

@@ -1,0 +1,44 @@
+// node.h — one recorded operation of the tape: its inputs and the backward function that maps the gradient of
+// its output to gradients of its inputs (llm.c-style: the closure holds the tensors the forward saved).
+//
+// Ownership: a Variable produced by an op owns its Node (grad_fn); the Node owns its input Variables' state, so
+// a graph lives exactly as long as some output refers to it. There are no cycles. Destroying a long chain is
+// iterative (no recursion), so graphs of any depth can be freed.
+#pragma once
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "tensor/tensor.h"
+
+namespace t2m::ag {
+
+struct VariableImpl;
+class Variable;
+
+// grad_out has the output's shape and dtype. Returns one tensor per input: that input's gradient (same shape as
+// the input; any strides) or an undefined Tensor when need[i] is false or no gradient flows to input i.
+using BackwardFn = std::function<std::vector<Tensor>(const Tensor& grad_out, const std::vector<bool>& need)>;
+
+struct Node {
+  std::string op;                                      // op name for error messages ("mul", "matmul", ...)
+  std::vector<std::shared_ptr<VariableImpl>> inputs;  // nullptr for inputs that do not require grad
+  std::vector<Shape> input_shapes;                     // to check what backward returns
+  BackwardFn backward;                                 // empty once released
+  bool released = false;                               // saved tensors freed by a backward without retain_graph
+
+  // Frees the saved tensors (the closure); the graph structure stays so a second backward can say why it fails.
+  void release();
+  ~Node();
+};
+
+// Wraps the forward result `out` of op `op`. When grad mode is on and some input requires grad, the result is a
+// non-leaf Variable whose grad_fn records the inputs and `backward`; otherwise a plain constant Variable (the
+// closure and its saved tensors are dropped at once).
+Variable record(const char* op, Tensor out, const std::vector<Variable>& inputs, BackwardFn backward);
+
+// True when grad mode is on and at least one of the inputs requires grad (ops use it to skip saving tensors).
+bool any_requires_grad(const std::vector<Variable>& inputs);
+
+}  // namespace t2m::ag

@@ -1,0 +1,113 @@
+// ops_unary.cpp — forward/backward pairs of the unary ops. a, out, g (output gradient) and da share one shape.
+#include "autograd/ops_unary.h"
+
+#include "tensor/ops.h"
+
+namespace t2m::ag {
+
+namespace {
+using Grads = std::vector<Tensor>;
+using Need = std::vector<bool>;
+}  // namespace
+
+// da = -g
+Variable neg(const Variable& a) {
+  return record("neg", t2m::neg(a.data()), {a}, [](const Tensor& g, const Need&) { return Grads{t2m::neg(g)}; });
+}
+
+// da = g * out
+Variable exp(const Variable& a) {
+  Tensor out = t2m::exp(a.data());
+  return record("exp", out, {a}, [out](const Tensor& g, const Need&) { return Grads{t2m::mul(g, out)}; });
+}
+
+// da = g / a
+Variable log(const Variable& a) {
+  Tensor ta = a.data();
+  return record("log", t2m::log(ta), {a}, [ta](const Tensor& g, const Need&) { return Grads{t2m::div(g, ta)}; });
+}
+
+// da = g * 0.5 / out
+Variable sqrt(const Variable& a) {
+  Tensor out = t2m::sqrt(a.data());
+  return record("sqrt", out, {a},
+                [out](const Tensor& g, const Need&) { return Grads{t2m::mul(t2m::div(g, out), 0.5)}; });
+}
+
+// out = a^(-1/2); da = -0.5 * g * out^3
+Variable rsqrt(const Variable& a) {
+  Tensor out = t2m::rsqrt(a.data());
+  return record("rsqrt", out, {a}, [out](const Tensor& g, const Need&) {
+    return Grads{t2m::mul(t2m::mul(g, t2m::mul(out, t2m::square(out))), -0.5)};
+  });
+}
+
+// da = g * (1 - out^2)
+Variable tanh(const Variable& a) {
+  Tensor out = t2m::tanh(a.data());
+  return record("tanh", out, {a}, [out](const Tensor& g, const Need&) {
+    return Grads{t2m::mul(g, t2m::add(t2m::neg(t2m::square(out)), 1.0))};
+  });
+}
+
+// da = g * out * (1 - out)
+Variable sigmoid(const Variable& a) {
+  Tensor out = t2m::sigmoid(a.data());
+  return record("sigmoid", out, {a}, [out](const Tensor& g, const Need&) {
+    return Grads{t2m::mul(g, t2m::mul(out, t2m::add(t2m::neg(out), 1.0)))};
+  });
+}
+
+// da = g * (a > 0)
+Variable relu(const Variable& a) {
+  Tensor ta = a.data();
+  return record("relu", t2m::relu(ta), {a},
+                [ta](const Tensor& g, const Need&) { return Grads{t2m::mul(g, t2m::gt(ta, 0.0))}; });
+}
+
+// da = g * sign(a)
+Variable abs(const Variable& a) {
+  Tensor ta = a.data();
+  return record("abs", t2m::abs(ta), {a},
+                [ta](const Tensor& g, const Need&) { return Grads{t2m::mul(g, t2m::sign(ta))}; });
+}
+
+// da = g * cos(a)
+Variable sin(const Variable& a) {
+  Tensor ta = a.data();
+  return record("sin", t2m::sin(ta), {a},
+                [ta](const Tensor& g, const Need&) { return Grads{t2m::mul(g, t2m::cos(ta))}; });
+}
+
+// da = -g * sin(a)
+Variable cos(const Variable& a) {
+  Tensor ta = a.data();
+  return record("cos", t2m::cos(ta), {a},
+                [ta](const Tensor& g, const Need&) { return Grads{t2m::neg(t2m::mul(g, t2m::sin(ta)))}; });
+}
+
+// da = 2 * g * a
+Variable square(const Variable& a) {
+  Tensor ta = a.data();
+  return record("square", t2m::square(ta), {a},
+                [ta](const Tensor& g, const Need&) { return Grads{t2m::mul(t2m::mul(g, ta), 2.0)}; });
+}
+
+// out = 1/a; da = -g * out^2
+Variable reciprocal(const Variable& a) {
+  Tensor out = t2m::reciprocal(a.data());
+  return record("reciprocal", out, {a},
+                [out](const Tensor& g, const Need&) { return Grads{t2m::neg(t2m::mul(g, t2m::square(out)))}; });
+}
+
+// da = g where lo <= a <= hi, else 0
+Variable clamp(const Variable& a, double lo, double hi) {
+  Tensor ta = a.data();
+  return record("clamp", t2m::clamp(ta, lo, hi), {a}, [ta, lo, hi](const Tensor& g, const Need&) {
+    // inside = (1 - [a < lo]) * (1 - [a > hi])
+    Tensor inside = t2m::mul(t2m::add(t2m::neg(t2m::lt(ta, lo)), 1.0), t2m::add(t2m::neg(t2m::gt(ta, hi)), 1.0));
+    return Grads{t2m::mul(g, inside)};
+  });
+}
+
+}  // namespace t2m::ag
