@@ -1,0 +1,101 @@
+// allocator.cpp — caching allocator: size classes with free lists behind one mutex.
+//
+// Size classes: requests round up to a multiple of 64 bytes; above 512 bytes to the next of four steps per power
+// of two (1, 1.25, 1.5, 1.75 × 2^k), so at most 25% is wasted. A zero-byte request gets a 64-byte block (every
+// Storage has a valid, aligned pointer). bytes_in_use / bytes_cached count class sizes, not requested sizes.
+#include "tensor/allocator.h"
+
+#include <cstdlib>
+#include <mutex>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "tensor/tensor.h"
+
+namespace t2m {
+namespace {
+
+constexpr size_t kAlign = 64;
+
+size_t size_class(size_t n) {
+  if (n <= 512) return n == 0 ? kAlign : (n + kAlign - 1) / kAlign * kAlign;
+  // Highest power of two p <= n - 1; classes p, 1.25p, 1.5p, 1.75p, 2p.
+  size_t p = 1;
+  while (p <= (n - 1) / 2) p <<= 1;
+  const size_t step = p / 4;
+  const size_t c = (n + step - 1) / step * step;
+  return (c + kAlign - 1) / kAlign * kAlign;
+}
+
+struct Cache {
+  std::mutex mu;
+  std::unordered_map<size_t, std::vector<void*>> free_lists;
+  AllocatorStats stats;
+};
+
+Cache& cache() {
+  static Cache* c = new Cache();  // never destroyed: Storages may be freed during static destruction
+  return *c;
+}
+
+// Frees every cached block; caller holds the lock.
+void release_locked(Cache& c) {
+  for (auto& [sz, list] : c.free_lists) {
+    for (void* p : list) std::free(p);
+    list.clear();
+  }
+  c.free_lists.clear();
+  c.stats.bytes_cached = 0;
+}
+
+}  // namespace
+
+void* cached_alloc(size_t nbytes) {
+  const size_t cls = size_class(nbytes);
+  Cache& c = cache();
+  std::lock_guard<std::mutex> lock(c.mu);
+  ++c.stats.allocs;
+  auto it = c.free_lists.find(cls);
+  void* p = nullptr;
+  if (it != c.free_lists.end() && !it->second.empty()) {
+    p = it->second.back();
+    it->second.pop_back();
+    c.stats.bytes_cached -= cls;
+  } else {
+    p = std::aligned_alloc(kAlign, cls);
+    if (!p) {  // out of memory: give the cache back to the OS and try once more
+      release_locked(c);
+      p = std::aligned_alloc(kAlign, cls);
+    }
+    if (!p) throw Error("cached_alloc: out of memory allocating " + std::to_string(nbytes) + " bytes");
+    ++c.stats.os_allocs;
+  }
+  c.stats.bytes_in_use += cls;
+  if (c.stats.bytes_in_use > c.stats.peak_bytes_in_use) c.stats.peak_bytes_in_use = c.stats.bytes_in_use;
+  return p;
+}
+
+void cached_free(void* p, size_t nbytes) {
+  if (!p) return;
+  const size_t cls = size_class(nbytes);
+  Cache& c = cache();
+  std::lock_guard<std::mutex> lock(c.mu);
+  c.free_lists[cls].push_back(p);
+  c.stats.bytes_in_use -= cls;
+  c.stats.bytes_cached += cls;
+}
+
+AllocatorStats allocator_stats() {
+  Cache& c = cache();
+  std::lock_guard<std::mutex> lock(c.mu);
+  return c.stats;
+}
+
+void allocator_release_cache() {
+  Cache& c = cache();
+  std::lock_guard<std::mutex> lock(c.mu);
+  release_locked(c);
+}
+
+}  // namespace t2m
