@@ -1,0 +1,252 @@
+// test_autograd_engine.cpp — the tape itself: backward errors, no_grad, accumulation, shared sub-expressions,
+// deep graphs, retain_grad/detach, non-smooth points, size-0 dims, bad input.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <thread>
+
+#include "autograd/autograd.h"
+#include "tensor/ops.h"
+
+namespace {
+
+using namespace t2m;
+using ag::Variable;
+
+// float32 tensors (the default dtype of the engine).
+Tensor vec(std::vector<double> v) { return Tensor::from_vector(v, {(int64_t)v.size()}).to(DType::f32); }
+Tensor mat(std::vector<double> v, int64_t r, int64_t c) { return Tensor::from_vector(v, {r, c}).to(DType::f32); }
+std::vector<double> values(const Tensor& t) { return t.to(DType::f64).to_vector<double>(); }
+
+// Runs f and returns the t2m::Error message (fails the test when nothing or something else is thrown).
+template <typename F>
+std::string error_of(F f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << "threw a non-t2m::Error: " << e.what();
+    return {};
+  }
+  ADD_FAILURE() << "did not throw";
+  return {};
+}
+
+TEST(AutogradEngine, BackwardTwiceThroughFreedGraphThrows) {
+  Variable x = Variable::parameter(vec({1, 2, 3}), "x");
+  Variable y = ag::sum(ag::exp(x));
+  y.backward();
+  std::string msg = error_of([&] { y.backward(); });
+  EXPECT_NE(msg.find("graph already freed"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("retain_graph=true"), std::string::npos) << msg;
+}
+
+TEST(AutogradEngine, RetainGraphAllowsSecondBackwardAndAccumulates) {
+  Variable x = Variable::parameter(vec({0.5, -1.0}), "x");
+  Variable y = ag::sum(ag::exp(x));
+  y.backward(Tensor(), /*retain_graph=*/true);
+  y.backward();
+  std::vector<double> g = values(x.grad());
+  EXPECT_NEAR(g[0], 2 * std::exp(0.5), 1e-5);
+  EXPECT_NEAR(g[1], 2 * std::exp(-1.0), 1e-5);
+}
+
+TEST(AutogradEngine, NonScalarWithoutSeedNamesShape) {
+  Variable x = Variable::parameter(Tensor::ones({2, 3}));
+  Variable y = x * 2.0;
+  std::string msg = error_of([&] { y.backward(); });
+  EXPECT_NE(msg.find("[2, 3]"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("not a scalar"), std::string::npos) << msg;
+}
+
+TEST(AutogradEngine, SeedGivesVectorJacobianProduct) {
+  Variable x = Variable::parameter(vec({1, 2, 3}));
+  Variable y = ag::square(x);
+  y.backward(vec({1, 0.5, -1}));
+  EXPECT_EQ(values(x.grad()), (std::vector<double>{2, 2, -6}));
+  // Wrong seed shape / dtype.
+  Variable z = ag::square(x);
+  EXPECT_NE(error_of([&] { z.backward(vec({1, 2})); }).find("[2]"), std::string::npos);
+  EXPECT_NE(error_of([&] { z.backward(vec({1, 2, 3}).to(DType::f64)); }).find("does not match"), std::string::npos);
+}
+
+TEST(AutogradEngine, BackwardOnConstantThrows) {
+  Variable c(vec({1, 2}));
+  std::string msg = error_of([&] { ag::sum(c).backward(); });
+  EXPECT_NE(msg.find("does not require grad"), std::string::npos) << msg;
+  EXPECT_NE(error_of([] { Variable().backward(); }).find("undefined"), std::string::npos);
+}
+
+TEST(AutogradEngine, NoGradRecordsNothing) {
+  Variable x = Variable::parameter(vec({1, 2}));
+  {
+    ag::NoGradGuard g;
+    EXPECT_FALSE(ag::GradMode::is_enabled());
+    Variable y = ag::exp(x) * x;
+    EXPECT_FALSE(y.requires_grad());
+    EXPECT_EQ(y.grad_fn(), nullptr);
+    EXPECT_TRUE(y.is_leaf());
+    {
+      ag::NoGradGuard nested;
+    }
+    EXPECT_FALSE(ag::GradMode::is_enabled()) << "a nested guard must restore 'off', not 'on'";
+    // Thread-local: another thread still records.
+    bool other_records = false;
+    std::thread t([&] { other_records = ag::exp(x).grad_fn() != nullptr; });
+    t.join();
+    EXPECT_TRUE(other_records);
+  }
+  EXPECT_TRUE(ag::GradMode::is_enabled());
+  Variable z = ag::exp(x);
+  ASSERT_NE(z.grad_fn(), nullptr);
+  EXPECT_EQ(z.grad_fn()->op, "exp");
+}
+
+TEST(AutogradEngine, AccumulatesAcrossBackwardCallsUntilZeroGrad) {
+  Variable x = Variable::parameter(vec({1, -2, 3}), "x");
+  auto loss = [&] { return ag::sum(x * x); };
+  loss().backward();
+  EXPECT_EQ(values(x.grad()), (std::vector<double>{2, -4, 6}));
+  loss().backward();
+  EXPECT_EQ(values(x.grad()), (std::vector<double>{4, -8, 12}));
+  const void* mem = x.grad().data<float>();
+  x.zero_grad();
+  EXPECT_EQ(values(x.grad()), (std::vector<double>{0, 0, 0}));
+  EXPECT_EQ(x.grad().data<float>(), mem) << "zero_grad keeps the buffer";
+  loss().backward();
+  EXPECT_EQ(values(x.grad()), (std::vector<double>{2, -4, 6}));
+  x.clear_grad();
+  EXPECT_FALSE(x.grad().defined());
+}
+
+TEST(AutogradEngine, SharedSubExpressionSumsAllPaths) {
+  // y = b*b + b with b = exp(x): dy/dx = (2b + 1) * b.
+  Variable x = Variable::parameter(vec({0.3, -0.7}));
+  Variable b = ag::exp(x);
+  Variable y = ag::sum(b * b + b);
+  y.backward();
+  std::vector<double> g = values(x.grad());
+  for (int i = 0; i < 2; ++i) {
+    double bi = std::exp(i == 0 ? 0.3 : -0.7);
+    EXPECT_NEAR(g[i], (2 * bi + 1) * bi, 1e-5);
+  }
+  // The same leaf as both inputs of one op.
+  Variable a = Variable::parameter(vec({1.5}));
+  ag::sum(a + a).backward();
+  EXPECT_EQ(values(a.grad()), (std::vector<double>{2}));
+}
+
+TEST(AutogradEngine, GradsDoNotAliasEachOther) {
+  // add's backward hands the same tensor to both inputs; accumulating into one must not change the other.
+  Variable a = Variable::parameter(vec({1, 2}));
+  Variable b = Variable::parameter(vec({3, 4}));
+  ag::sum(a + b).backward();
+  ag::sum(a * 3.0).backward();
+  EXPECT_EQ(values(a.grad()), (std::vector<double>{4, 4}));
+  EXPECT_EQ(values(b.grad()), (std::vector<double>{1, 1}));
+}
+
+TEST(AutogradEngine, DeepChainDoesNotOverflowTheStack) {
+  const int n = 10000;
+  Variable x = Variable::parameter(Tensor::full({1}, 0.5, DType::f64));
+  Variable y = x;
+  for (int i = 0; i < n; ++i) y = y * 1.0001 + 0.0;  // 2 ops per step: 20,000 nodes
+  ag::sum(y).backward();
+  EXPECT_NEAR(x.grad().item(), std::pow(1.0001, n), 1e-9 * std::pow(1.0001, n));
+  // A deeper graph that is dropped without backward: destruction must not recurse either.
+  Variable z = x;
+  for (int i = 0; i < 100000; ++i) z = z + 1.0;
+  EXPECT_DOUBLE_EQ(z.item(), 0.5 + 100000);
+  z = Variable();
+  SUCCEED();
+}
+
+TEST(AutogradEngine, NonLeafGradOnlyWithRetainGrad) {
+  Variable x = Variable::parameter(vec({1, 2}));
+  Variable h = x * 3.0;
+  Variable k = x * 2.0;
+  k.retain_grad();
+  ag::sum(h * k).backward();
+  EXPECT_FALSE(h.grad().defined());
+  ASSERT_TRUE(k.grad().defined());
+  EXPECT_EQ(values(k.grad()), (std::vector<double>{3, 6}));  // d(h*k)/dk = h
+  EXPECT_EQ(values(x.grad()), (std::vector<double>{12, 24}));  // d(6 x^2)/dx = 12 x
+}
+
+TEST(AutogradEngine, DetachCutsTheGraph) {
+  Variable x = Variable::parameter(vec({2, 3}));
+  Variable d = x.detach();
+  EXPECT_FALSE(d.requires_grad());
+  EXPECT_TRUE(d.data().shares_storage(x.data()));
+  ag::sum(d * x).backward();  // only the x path: grad = d
+  EXPECT_EQ(values(x.grad()), (std::vector<double>{2, 3}));
+}
+
+TEST(AutogradEngine, ConstantInputsGetNoGrad) {
+  Variable x = Variable::parameter(mat({1, 2, 3, 4}, 2, 2));
+  Variable c(mat({1, 0, 0, 1}, 2, 2));
+  ag::sum(ag::matmul(x, c)).backward();
+  EXPECT_FALSE(c.grad().defined());
+  EXPECT_EQ(values(x.grad()), (std::vector<double>{1, 1, 1, 1}));
+  EXPECT_EQ(x.grad().dtype(), DType::f32);
+}
+
+TEST(AutogradEngine, TiesAndKinks) {
+  // amax splits ties evenly; max(dim) sends the gradient to the first maximum only.
+  Variable x = Variable::parameter(vec({1, 3, 3, 2}));
+  ag::amax(x).backward();
+  EXPECT_EQ(values(x.grad()), (std::vector<double>{0, 0.5, 0.5, 0}));
+  x.clear_grad();
+  ag::sum(ag::max(x, 0).values).backward();
+  EXPECT_EQ(values(x.grad()), (std::vector<double>{0, 1, 0, 0}));
+  // maximum/minimum split ties between a and b.
+  Variable a = Variable::parameter(vec({1, 2})), b = Variable::parameter(vec({1, 3}));
+  ag::sum(ag::maximum(a, b)).backward();
+  EXPECT_EQ(values(a.grad()), (std::vector<double>{0.5, 0}));
+  EXPECT_EQ(values(b.grad()), (std::vector<double>{0.5, 1}));
+  // relu'(0) = abs'(0) = 0; clamp passes the gradient on its (inclusive) bounds.
+  Variable z = Variable::parameter(vec({0, -1, 1, 2}));
+  ag::sum(ag::relu(z) + ag::abs(z) + ag::clamp(z, -1, 1)).backward();
+  EXPECT_EQ(values(z.grad()), (std::vector<double>{1, -1 + 1, 1 + 1 + 1, 1 + 1}));
+}
+
+TEST(AutogradEngine, WhereAndMaskedFillRouteGradients) {
+  Variable a = Variable::parameter(vec({1, 2, 3})), b = Variable::parameter(vec({4, 5, 6}));
+  Tensor cond = vec({1, 0, 1});
+  ag::sum(ag::where(cond, a, b) * 2.0 + ag::masked_fill(a, cond, 9.0)).backward();
+  EXPECT_EQ(values(a.grad()), (std::vector<double>{2, 1, 2}));
+  EXPECT_EQ(values(b.grad()), (std::vector<double>{0, 2, 0}));
+}
+
+TEST(AutogradEngine, ZeroSizeDims) {
+  Variable x = Variable::parameter(Tensor::zeros({0, 3}));
+  Variable w = Variable::parameter(vec({1, 2, 3}));
+  Variable y = ag::sum(x * w);
+  EXPECT_EQ(y.item(), 0.0);
+  y.backward();
+  EXPECT_EQ(x.grad().shape(), (Shape{0, 3}));
+  EXPECT_EQ(values(w.grad()), (std::vector<double>{0, 0, 0}));
+  Variable m = ag::mean(x, {0});
+  m.backward(Tensor::ones({3}));
+  EXPECT_EQ(x.grad().shape(), (Shape{0, 3}));
+}
+
+TEST(AutogradEngine, BadInputThrowsT2mError) {
+  Variable a = Variable::parameter(Tensor::ones({2, 3})), b = Variable::parameter(Tensor::ones({4}));
+  error_of([&] { ag::add(a, b); });
+  error_of([&] { ag::matmul(a, a); });
+  error_of([&] { ag::concat({}, 0); });
+  error_of([&] { ag::sum(a, {2}); });
+  error_of([&] { ag::index_select(a, 0, Tensor::from_vector(std::vector<int64_t>{5}, {1})); });
+  EXPECT_NE(error_of([] { (void)Variable(Tensor()); }).find("undefined"), std::string::npos);
+  EXPECT_NE(error_of([] { (void)Variable(Tensor::zeros({2}, DType::i64), true); }).find("int64"), std::string::npos);
+  Variable y = a * 2.0;
+  EXPECT_NE(error_of([&] { y.set_requires_grad(false); }).find("not a leaf"), std::string::npos);
+  EXPECT_NE(error_of([] { Variable().shape(); }).find("undefined"), std::string::npos);
+  // A failed op leaves earlier graphs usable.
+  ag::sum(a * a).backward();
+  EXPECT_EQ(values(a.grad()), (std::vector<double>(6, 2.0)));
+}
+
+}  // namespace
