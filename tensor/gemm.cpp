@@ -1,40 +1,365 @@
-// gemm.cpp — PLACEHOLDER naive GEMM so that the tensor layer links; replaced by the packed-panel kernel.
+// gemm.cpp — the GEMM driver: argument checks, run-time kernel choice, the GotoBLAS/BLIS loop nest over packed
+// panels (see gemm_kernel.h for the layouts), the thread split, a cheap unpacked path for small shapes, and
+// the batched entry points.
 #include "tensor/gemm.h"
 
+#include <omp.h>
+#include <sys/mman.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdlib>
 #include <cstring>
+#include <string>
+
+#include "tensor/gemm_kernel.h"
+#include "tensor/parallel.h"
+#include "tensor/tensor.h"
 
 namespace t2m {
+namespace {
+
+using gemm_detail::MicroKernel;
+
+// One C = alpha op(A) op(B) + beta C problem.
+template <typename T>
+struct GemmArgs {
+  bool ta, tb;
+  int64_t M, N, K;
+  T alpha;
+  const T* A;
+  int64_t lda;
+  const T* B;
+  int64_t ldb;
+  T beta;
+  T* C;
+  int64_t ldc;
+  const T* a_at(int64_t i, int64_t k) const { return ta ? A + k * lda + i : A + i * lda + k; }  // &op(A)[i,k]
+  const T* b_at(int64_t k, int64_t j) const { return tb ? B + j * ldb + k : B + k * ldb + j; }  // &op(B)[k,j]
+};
+
+int64_t ceil_div(int64_t a, int64_t b) { return (a + b - 1) / b; }
+int64_t round_up(int64_t a, int64_t b) { return ceil_div(a, b) * b; }
+
+// A grow-only, page-aligned scratch buffer per thread: packing never allocates once warm (first touches of
+// fresh pages are very expensive on these VMs, so the memory is kept for the life of the thread).
+struct PackBuffer {
+  void* ptr = nullptr;
+  size_t cap = 0;
+  PackBuffer() = default;
+  PackBuffer(const PackBuffer&) = delete;
+  PackBuffer& operator=(const PackBuffer&) = delete;
+  ~PackBuffer() { std::free(ptr); }
+  template <typename T>
+  T* get(int64_t n) {
+    const size_t bytes = size_t(std::max<int64_t>(n, 1)) * sizeof(T);
+    if (bytes > cap) {
+      std::free(ptr);
+      ptr = nullptr;
+      cap = 0;
+      const size_t huge = size_t(2) << 20;
+      const size_t want = bytes >= huge ? (bytes + huge - 1) / huge * huge : (bytes + 4095) / 4096 * 4096;
+      ptr = std::aligned_alloc(bytes >= huge ? huge : 4096, want);
+      if (!ptr) throw Error("gemm: cannot allocate " + std::to_string(want) + " bytes of packing buffer");
+      if (want >= huge) madvise(ptr, want, MADV_HUGEPAGE);
+      cap = want;
+    }
+    return static_cast<T*>(ptr);
+  }
+};
+thread_local PackBuffer tls_pack_a, tls_pack_b, tls_small;
+
+// ---- kernel choice -------------------------------------------------------------------------------------------
+
+enum KernelId : int { kAuto = 0, kAvx512 = 1, kAvx2 = 2 };
+std::atomic<int> g_forced_kernel{kAuto};
+
+bool cpu_has_avx512() {
+  static const bool has = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+                          __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl");
+  return has;
+}
+bool cpu_has_avx2() {
+  static const bool has = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+  return has;
+}
+KernelId chosen_kernel() {
+  const int f = g_forced_kernel.load(std::memory_order_relaxed);
+  if (f != kAuto) return KernelId(f);
+  return cpu_has_avx512() ? kAvx512 : kAvx2;
+}
+template <typename T>
+const MicroKernel<T>& select_kernel();
+template <>
+const MicroKernel<float>& select_kernel<float>() {
+  return chosen_kernel() == kAvx512 ? gemm_detail::avx512_kernel_f32() : gemm_detail::avx2_kernel_f32();
+}
+template <>
+const MicroKernel<double>& select_kernel<double>() {
+  return chosen_kernel() == kAvx512 ? gemm_detail::avx512_kernel_f64() : gemm_detail::avx2_kernel_f64();
+}
+
+// ---- checks --------------------------------------------------------------------------------------------------
 
 template <typename T>
-static void gemm_naive(bool ta, bool tb, int64_t M, int64_t N, int64_t K, T alpha, const T* A, int64_t lda,
-                       const T* B, int64_t ldb, T beta, T* C, int64_t ldc) {
-  for (int64_t i = 0; i < M; ++i)
-    for (int64_t j = 0; j < N; ++j) {
-      T acc = 0;
-      for (int64_t k = 0; k < K; ++k) acc += (ta ? A[k * lda + i] : A[i * lda + k]) * (tb ? B[j * ldb + k] : B[k * ldb + j]);
-      C[i * ldc + j] = alpha * acc + (beta == T(0) ? T(0) : beta * C[i * ldc + j]);
-    }
+void check_args(const char* op, const GemmArgs<T>& g) {
+  auto fail = [&](const std::string& what) {
+    throw Error(std::string(op) + ": " + what + " (trans_a=" + std::to_string(g.ta) + " trans_b=" +
+                std::to_string(g.tb) + " M=" + std::to_string(g.M) + " N=" + std::to_string(g.N) +
+                " K=" + std::to_string(g.K) + " lda=" + std::to_string(g.lda) + " ldb=" + std::to_string(g.ldb) +
+                " ldc=" + std::to_string(g.ldc) + ")");
+  };
+  if (g.M < 0 || g.N < 0 || g.K < 0) fail("negative dimension");
+  const int64_t a_cols = g.ta ? g.M : g.K, b_cols = g.tb ? g.K : g.N;
+  if (g.lda < std::max<int64_t>(1, a_cols)) fail("lda smaller than the row length of A (" + std::to_string(a_cols) + ")");
+  if (g.ldb < std::max<int64_t>(1, b_cols)) fail("ldb smaller than the row length of B (" + std::to_string(b_cols) + ")");
+  if (g.ldc < std::max<int64_t>(1, g.N)) fail("ldc smaller than N");
+  if (g.M > 0 && g.N > 0 && !g.C) fail("C is null");
+  if (g.M > 0 && g.N > 0 && g.K > 0 && g.alpha != T(0) && (!g.A || !g.B)) fail("A or B is null");
 }
+
+// ---- C = beta C (K == 0 or alpha == 0) -----------------------------------------------------------------------
+
+template <typename T>
+void scale_c(const GemmArgs<T>& g) {
+  for (int64_t i = 0; i < g.M; ++i) {
+    T* c = g.C + i * g.ldc;
+    if (g.beta == T(0)) {
+      std::fill(c, c + g.N, T(0));
+    } else if (g.beta != T(1)) {
+      for (int64_t j = 0; j < g.N; ++j) c[j] *= g.beta;
+    }
+  }
+}
+
+// ---- small shapes: no packing ---------------------------------------------------------------------------------
+
+// Matrix-vector-like or tiny problems: packing would cost more than it saves.
+template <typename T>
+bool is_small(const GemmArgs<T>& g) {
+  return g.M <= 2 || g.N <= 2 || g.K <= 2 || g.M * g.N * g.K <= 24 * 24 * 24;
+}
+
+// Rows [i0, i1) of C. op(B) row-major (no trans): C[i,:] accumulates a[i,k] * B[k,:] (vectorised along N).
+// op(B) = B^T: C[i,j] = dot(op(A)[i,:], B[j,:]) with 8 partial sums (vectorised along K).
+template <typename T>
+void gemm_small_rows(const GemmArgs<T>& g, int64_t i0, int64_t i1) {
+  T* tmp = tls_small.get<T>(g.N + g.K);
+  for (int64_t i = i0; i < i1; ++i) {
+    T* c = g.C + i * g.ldc;
+    if (!g.tb) {
+      std::fill(tmp, tmp + g.N, T(0));
+      for (int64_t k = 0; k < g.K; ++k) {
+        const T a = *g.a_at(i, k);
+        const T* b = g.B + k * g.ldb;
+        for (int64_t j = 0; j < g.N; ++j) tmp[j] = std::fma(a, b[j], tmp[j]);
+      }
+    } else {
+      const T* a = g.a_at(i, 0);
+      if (g.ta) {  // gather the strided row of op(A) once
+        T* arow = tmp + g.N;
+        for (int64_t k = 0; k < g.K; ++k) arow[k] = g.A[k * g.lda + i];
+        a = arow;
+      }
+      for (int64_t j = 0; j < g.N; ++j) {
+        const T* b = g.B + j * g.ldb;
+        T s[8] = {};
+        int64_t k = 0;
+        for (; k + 8 <= g.K; k += 8)
+          for (int u = 0; u < 8; ++u) s[u] = std::fma(a[k + u], b[k + u], s[u]);
+        for (; k < g.K; ++k) s[0] = std::fma(a[k], b[k], s[0]);
+        tmp[j] = ((s[0] + s[4]) + (s[1] + s[5])) + ((s[2] + s[6]) + (s[3] + s[7]));
+      }
+    }
+    if (g.beta == T(0)) {
+      for (int64_t j = 0; j < g.N; ++j) c[j] = g.alpha * tmp[j];
+    } else {
+      for (int64_t j = 0; j < g.N; ++j) c[j] = std::fma(g.alpha, tmp[j], g.beta * c[j]);
+    }
+  }
+}
+
+template <typename T>
+void gemm_small(const GemmArgs<T>& g, int nt) {
+  if (nt <= 1 || g.M < 2 * nt) {
+    gemm_small_rows(g, 0, g.M);
+    return;
+  }
+#pragma omp parallel num_threads(nt)
+  {
+    const int t = omp_get_thread_num(), team = omp_get_num_threads();
+    gemm_small_rows(g, g.M * t / team, g.M * (t + 1) / team);
+  }
+}
+
+// ---- the packed path ------------------------------------------------------------------------------------------
+
+// C block (mc×nc, row stride ldc) from packed A (mc×kc) and packed B (kc×nc). Edge tiles go through a local
+// tile so that the micro-kernel always runs full-size.
+template <typename T>
+void macro_kernel(const MicroKernel<T>& uk, int64_t mc, int64_t nc, int64_t kc, const T* ap, const T* bp, T* c,
+                  int64_t ldc, T alpha, T beta) {
+  const int mr = uk.mr, nr = uk.nr;
+  alignas(64) T tile[32 * 64];
+  for (int64_t jr = 0; jr < nc; jr += nr) {
+    const int64_t n = std::min<int64_t>(nr, nc - jr);
+    const T* b = bp + (jr / nr) * kc * nr;
+    for (int64_t ir = 0; ir < mc; ir += mr) {
+      const int64_t m = std::min<int64_t>(mr, mc - ir);
+      const T* a = ap + (ir / mr) * kc * mr;
+      T* cc = c + ir * ldc + jr;
+      if (m == mr && n == nr) {
+        uk.kernel(kc, a, b, cc, ldc, alpha, beta);
+        continue;
+      }
+      uk.kernel(kc, a, b, tile, nr, T(1), T(0));
+      for (int64_t i = 0; i < m; ++i) {
+        T* row = cc + i * ldc;
+        const T* t = tile + i * nr;
+        if (beta == T(0)) {
+          for (int64_t j = 0; j < n; ++j) row[j] = alpha * t[j];
+        } else {
+          for (int64_t j = 0; j < n; ++j) row[j] = std::fma(alpha, t[j], beta * row[j]);
+        }
+      }
+    }
+  }
+}
+
+// Threads split C by rows (each packs its own A blocks; the B block is packed once, cooperatively, and shared)
+// or, when M is too short for that, by columns (each packs its own B panels and the whole A block).
+template <typename T>
+void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
+  const int64_t mr = uk.mr, nr = uk.nr, MC = uk.mc, KC = uk.kc, NC = uk.nc;
+  const int64_t m_tiles = ceil_div(g.M, mr), n_tiles = ceil_div(g.N, nr);
+  nt = int(std::max<int64_t>(1, std::min<int64_t>(nt, std::max(m_tiles, n_tiles))));
+  const bool split_m = nt == 1 || m_tiles >= 4 * nt || m_tiles >= n_tiles;
+  T* shared_bp = split_m ? tls_pack_b.get<T>(KC * round_up(std::min(NC, g.N), nr)) : nullptr;
+#pragma omp parallel num_threads(nt) if (nt > 1)
+  {
+    const int t = omp_get_thread_num(), team = omp_get_num_threads();
+    int64_t m0 = 0, m1 = g.M, n0 = 0, n1 = g.N;
+    if (split_m) {
+      m0 = std::min(g.M, m_tiles * t / team * mr);
+      m1 = std::min(g.M, m_tiles * (t + 1) / team * mr);
+    } else {
+      n0 = std::min(g.N, n_tiles * t / team * nr);
+      n1 = std::min(g.N, n_tiles * (t + 1) / team * nr);
+    }
+    T* ap = tls_pack_a.get<T>(round_up(std::min(MC, std::max<int64_t>(m1 - m0, 1)), mr) * KC);
+    T* bp = split_m ? shared_bp : tls_pack_b.get<T>(KC * round_up(std::min(NC, std::max<int64_t>(n1 - n0, 1)), nr));
+    for (int64_t jc = n0; jc < n1; jc += NC) {
+      const int64_t nc = std::min(NC, n1 - jc);
+      for (int64_t pc = 0; pc < g.K; pc += KC) {
+        const int64_t kc = std::min(KC, g.K - pc);
+        const T beta = pc == 0 ? g.beta : T(1);
+        if (split_m) {
+          const int64_t panels = ceil_div(nc, nr);
+#pragma omp for schedule(static)
+          for (int64_t p = 0; p < panels; ++p)
+            uk.pack_b(g.tb, kc, std::min(nr, nc - p * nr), g.b_at(pc, jc + p * nr), g.ldb, bp + p * kc * nr);
+        } else {
+          uk.pack_b(g.tb, kc, nc, g.b_at(pc, jc), g.ldb, bp);
+        }
+        for (int64_t ic = m0; ic < m1; ic += MC) {
+          const int64_t mc = std::min(MC, m1 - ic);
+          uk.pack_a(g.ta, mc, kc, g.a_at(ic, pc), g.lda, ap);
+          macro_kernel(uk, mc, nc, kc, ap, bp, g.C + ic * g.ldc + jc, g.ldc, g.alpha, beta);
+        }
+        if (split_m) {
+#pragma omp barrier
+        }
+      }
+    }
+  }
+}
+
+// Threads worth using for a problem of M·N·K multiply-adds (a fork/join costs a few microseconds).
+int threads_for(int64_t work) {
+  if (omp_in_parallel()) return 1;
+  if (work < (int64_t(1) << 18)) return 1;
+  return std::max(1, get_num_threads());
+}
+
+template <typename T>
+void gemm_run(const GemmArgs<T>& g, int nt) {
+  if (g.M == 0 || g.N == 0) return;
+  if (g.K == 0 || g.alpha == T(0)) return scale_c(g);
+  if (is_small(g)) return gemm_small(g, nt);
+  gemm_packed(select_kernel<T>(), g, nt);
+}
+
+template <typename T>
+void gemm_one(bool ta, bool tb, int64_t M, int64_t N, int64_t K, T alpha, const T* A, int64_t lda, const T* B,
+              int64_t ldb, T beta, T* C, int64_t ldc) {
+  const GemmArgs<T> g{ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, C, ldc};
+  check_args("gemm", g);
+  gemm_run(g, threads_for(M * N * K));
+}
+
+template <typename T>
+void gemm_batch(bool ta, bool tb, int64_t batch, int64_t M, int64_t N, int64_t K, T alpha, const T* A,
+                int64_t lda, int64_t sa, const T* B, int64_t ldb, int64_t sb, T beta, T* C, int64_t ldc,
+                int64_t sc) {
+  const GemmArgs<T> g0{ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, C, ldc};
+  check_args("gemm_batched", g0);
+  if (batch < 0 || sa < 0 || sb < 0 || sc < 0)
+    throw Error("gemm_batched: negative batch or stride (batch=" + std::to_string(batch) + " stride_a=" +
+                std::to_string(sa) + " stride_b=" + std::to_string(sb) + " stride_c=" + std::to_string(sc) + ")");
+  if (batch == 0 || M == 0 || N == 0) return;
+  const int64_t per = M * N * K;
+  const int nt = threads_for(per * batch);
+  auto at = [&](int64_t b) {
+    return GemmArgs<T>{ta, tb, M, N, K, alpha, A + b * sa, lda, B + b * sb, ldb, beta, C + b * sc, ldc};
+  };
+  // Small matrices and enough of them: one whole GEMM per thread. stride_c == 0 (every product accumulates
+  // into the same C) stays sequential.
+  if (nt > 1 && batch >= nt && per < (int64_t(1) << 21) && sc != 0) {
+    select_kernel<T>();
+#pragma omp parallel for schedule(static) num_threads(nt)
+    for (int64_t b = 0; b < batch; ++b) gemm_run(at(b), 1);
+    return;
+  }
+  for (int64_t b = 0; b < batch; ++b) gemm_run(at(b), threads_for(per));
+}
+
+}  // namespace
 
 void gemm(bool ta, bool tb, int64_t M, int64_t N, int64_t K, float alpha, const float* A, int64_t lda,
           const float* B, int64_t ldb, float beta, float* C, int64_t ldc) {
-  gemm_naive(ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, C, ldc);
+  gemm_one(ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, C, ldc);
 }
 void gemm(bool ta, bool tb, int64_t M, int64_t N, int64_t K, double alpha, const double* A, int64_t lda,
           const double* B, int64_t ldb, double beta, double* C, int64_t ldc) {
-  gemm_naive(ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, C, ldc);
+  gemm_one(ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, C, ldc);
 }
 void gemm_batched(bool ta, bool tb, int64_t batch, int64_t M, int64_t N, int64_t K, float alpha, const float* A,
                   int64_t lda, int64_t sa, const float* B, int64_t ldb, int64_t sb, float beta, float* C,
                   int64_t ldc, int64_t sc) {
-  for (int64_t b = 0; b < batch; ++b) gemm(ta, tb, M, N, K, alpha, A + b * sa, lda, B + b * sb, ldb, beta, C + b * sc, ldc);
+  gemm_batch(ta, tb, batch, M, N, K, alpha, A, lda, sa, B, ldb, sb, beta, C, ldc, sc);
 }
 void gemm_batched(bool ta, bool tb, int64_t batch, int64_t M, int64_t N, int64_t K, double alpha, const double* A,
                   int64_t lda, int64_t sa, const double* B, int64_t ldb, int64_t sb, double beta, double* C,
                   int64_t ldc, int64_t sc) {
-  for (int64_t b = 0; b < batch; ++b) gemm(ta, tb, M, N, K, alpha, A + b * sa, lda, B + b * sb, ldb, beta, C + b * sc, ldc);
+  gemm_batch(ta, tb, batch, M, N, K, alpha, A, lda, sa, B, ldb, sb, beta, C, ldc, sc);
 }
-const char* gemm_kernel_name() { return "naive"; }
-void gemm_force_kernel(const char*) {}
+
+const char* gemm_kernel_name() { return chosen_kernel() == kAvx512 ? "avx512" : "avx2"; }
+
+void gemm_force_kernel(const char* name) {
+  const std::string n = name ? name : "";
+  if (n == "auto") {
+    g_forced_kernel.store(kAuto);
+  } else if (n == "avx512") {
+    if (!cpu_has_avx512()) throw Error("gemm_force_kernel: this CPU lacks AVX-512 (avx512f/bw/dq/vl)");
+    g_forced_kernel.store(kAvx512);
+  } else if (n == "avx2") {
+    if (!cpu_has_avx2()) throw Error("gemm_force_kernel: this CPU lacks AVX2+FMA");
+    g_forced_kernel.store(kAvx2);
+  } else {
+    throw Error("gemm_force_kernel: unknown kernel '" + n + "' (expected avx512, avx2 or auto)");
+  }
+}
 
 }  // namespace t2m

@@ -1,0 +1,124 @@
+// gemm_avx512.cpp — AVX-512 micro-kernels (zmm FMAs) and their packing; compiled with AVX-512 flags and only
+// called after a run-time check (__builtin_cpu_supports("avx512f")).
+//
+// float: a 12×32 tile = 12 rows × 2 zmm = 24 accumulators + 2 B vectors (26 of the 32 zmm registers); per k
+// it loads 2 vectors of B and broadcasts 12 values of A (embedded {1to16} broadcasts), 24 FMAs.
+// double: the same shape in doubles (12×16, 2 zmm of 8 per row).
+#include <immintrin.h>
+
+#include "tensor/gemm_kernel.h"
+
+namespace t2m::gemm_detail {
+namespace {
+
+constexpr int kMrF = 12, kNvF = 2, kNrF = 16 * kNvF;
+constexpr int kMrD = 12, kNvD = 2, kNrD = 8 * kNvD;
+
+// C[0:MR, 0:16*NV] = alpha * ap^T bp + beta * C.
+template <int MR, int NV>
+void kernel_f32(int64_t kc, const float* ap, const float* bp, float* c, int64_t ldc, float alpha, float beta) {
+  __m512 acc[MR][NV];
+#pragma GCC unroll 32
+  for (int i = 0; i < MR; ++i)
+#pragma GCC unroll 4
+    for (int v = 0; v < NV; ++v) acc[i][v] = _mm512_setzero_ps();
+  for (int64_t k = 0; k < kc; ++k) {
+    __m512 b[NV];
+#pragma GCC unroll 4
+    for (int v = 0; v < NV; ++v) b[v] = _mm512_load_ps(bp + 16 * v);
+    _mm_prefetch(reinterpret_cast<const char*>(ap + 8 * MR), _MM_HINT_T0);
+#pragma GCC unroll 32
+    for (int i = 0; i < MR; ++i) {
+      const __m512 a = _mm512_set1_ps(ap[i]);
+#pragma GCC unroll 4
+      for (int v = 0; v < NV; ++v) acc[i][v] = _mm512_fmadd_ps(a, b[v], acc[i][v]);
+    }
+    ap += MR;
+    bp += 16 * NV;
+  }
+  const __m512 va = _mm512_set1_ps(alpha);
+  if (beta == 0.0f) {
+#pragma GCC unroll 32
+    for (int i = 0; i < MR; ++i)
+#pragma GCC unroll 4
+      for (int v = 0; v < NV; ++v) _mm512_storeu_ps(c + i * ldc + 16 * v, _mm512_mul_ps(va, acc[i][v]));
+  } else {
+    const __m512 vb = _mm512_set1_ps(beta);
+#pragma GCC unroll 32
+    for (int i = 0; i < MR; ++i)
+#pragma GCC unroll 4
+      for (int v = 0; v < NV; ++v) {
+        float* p = c + i * ldc + 16 * v;
+        _mm512_storeu_ps(p, _mm512_fmadd_ps(va, acc[i][v], _mm512_mul_ps(vb, _mm512_loadu_ps(p))));
+      }
+  }
+}
+
+template <int MR, int NV>
+void kernel_f64(int64_t kc, const double* ap, const double* bp, double* c, int64_t ldc, double alpha,
+                double beta) {
+  __m512d acc[MR][NV];
+#pragma GCC unroll 32
+  for (int i = 0; i < MR; ++i)
+#pragma GCC unroll 4
+    for (int v = 0; v < NV; ++v) acc[i][v] = _mm512_setzero_pd();
+  for (int64_t k = 0; k < kc; ++k) {
+    __m512d b[NV];
+#pragma GCC unroll 4
+    for (int v = 0; v < NV; ++v) b[v] = _mm512_load_pd(bp + 8 * v);
+#pragma GCC unroll 32
+    for (int i = 0; i < MR; ++i) {
+      const __m512d a = _mm512_set1_pd(ap[i]);
+#pragma GCC unroll 4
+      for (int v = 0; v < NV; ++v) acc[i][v] = _mm512_fmadd_pd(a, b[v], acc[i][v]);
+    }
+    ap += MR;
+    bp += 8 * NV;
+  }
+  const __m512d va = _mm512_set1_pd(alpha);
+  if (beta == 0.0) {
+#pragma GCC unroll 32
+    for (int i = 0; i < MR; ++i)
+#pragma GCC unroll 4
+      for (int v = 0; v < NV; ++v) _mm512_storeu_pd(c + i * ldc + 8 * v, _mm512_mul_pd(va, acc[i][v]));
+  } else {
+    const __m512d vb = _mm512_set1_pd(beta);
+#pragma GCC unroll 32
+    for (int i = 0; i < MR; ++i)
+#pragma GCC unroll 4
+      for (int v = 0; v < NV; ++v) {
+        double* p = c + i * ldc + 8 * v;
+        _mm512_storeu_pd(p, _mm512_fmadd_pd(va, acc[i][v], _mm512_mul_pd(vb, _mm512_loadu_pd(p))));
+      }
+  }
+}
+
+void pack_a_f32(bool trans, int64_t mc, int64_t kc, const float* a, int64_t lda, float* ap) {
+  pack_a_panels<float, kMrF>(trans, mc, kc, a, lda, ap);
+}
+void pack_b_f32(bool trans, int64_t kc, int64_t nc, const float* b, int64_t ldb, float* bp) {
+  pack_b_panels<float, kNrF>(trans, kc, nc, b, ldb, bp);
+}
+void pack_a_f64(bool trans, int64_t mc, int64_t kc, const double* a, int64_t lda, double* ap) {
+  pack_a_panels<double, kMrD>(trans, mc, kc, a, lda, ap);
+}
+void pack_b_f64(bool trans, int64_t kc, int64_t nc, const double* b, int64_t ldb, double* bp) {
+  pack_b_panels<double, kNrD>(trans, kc, nc, b, ldb, bp);
+}
+
+}  // namespace
+
+// Blocking for Zen5 (48 KB L1d, 1 MB L2/core): B micro-panel kc×nr = 256×32×4 B = 32 KB (L1);
+// A block mc×kc = 384×256×4 B = 384 KB (L2); B block kc×nc = 256×4096×4 B = 4 MB (L3).
+const MicroKernel<float>& avx512_kernel_f32() {
+  static const MicroKernel<float> k{"avx512", kMrF, kNrF, 384, 256, 4096, &kernel_f32<kMrF, kNvF>,
+                                    &pack_a_f32, &pack_b_f32};
+  return k;
+}
+const MicroKernel<double>& avx512_kernel_f64() {
+  static const MicroKernel<double> k{"avx512", kMrD, kNrD, 192, 256, 2048, &kernel_f64<kMrD, kNvD>,
+                                     &pack_a_f64, &pack_b_f64};
+  return k;
+}
+
+}  // namespace t2m::gemm_detail

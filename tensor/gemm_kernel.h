@@ -1,0 +1,126 @@
+// gemm_kernel.h — internal to tensor/gemm*.cpp: the micro-kernel table and the panel-packing routines.
+//
+// The blocked GEMM (gemm.cpp) follows the GotoBLAS/BLIS loop nest. Row-major C is vectorised along N:
+//   jc over N step nc: pc over K step kc: pack op(B)[pc:+kc, jc:+nc] into nr-wide panels (kc×nr each)
+//     ic over M step mc: pack op(A)[ic:+mc, pc:+kc] into mr-tall panels (kc×mr each)
+//       jr over the B panels: ir over the A panels: micro-kernel updates the mr×nr tile of C.
+// Packed layouts (both k-major, zero padded to a full panel):
+//   A panel p: ap[p*kc*mr + k*mr + i] = op(A)[p*mr + i, k]      (i < mr)
+//   B panel q: bp[q*kc*nr + k*nr + j] = op(B)[k, q*nr + j]      (j < nr)
+// A micro-kernel computes C[0:mr, 0:nr] = alpha * sum_k ap[k,:]^T bp[k,:] + beta * C (beta == 0: C never read)
+// with the final update done as fma(alpha, acc, beta*c), in k order, so every element's arithmetic depends
+// only on its own row/column data (results do not depend on the thread split).
+#pragma once
+#include <cmath>
+#include <cstdint>
+
+namespace t2m::gemm_detail {
+
+template <typename T>
+struct MicroKernel {
+  const char* name;
+  int mr, nr;          // register tile
+  int64_t mc, kc, nc;  // cache blocking: A block mc×kc (L2), B micro-panel kc×nr (L1), B block kc×nc (L3)
+  void (*kernel)(int64_t kc, const T* ap, const T* bp, T* c, int64_t ldc, T alpha, T beta);
+  void (*pack_a)(bool trans, int64_t mc, int64_t kc, const T* a, int64_t lda, T* ap);
+  void (*pack_b)(bool trans, int64_t kc, int64_t nc, const T* b, int64_t ldb, T* bp);
+};
+
+// Defined in gemm_avx512.cpp (requires avx512f at run time) and gemm_avx2.cpp (AVX2+FMA baseline).
+const MicroKernel<float>& avx512_kernel_f32();
+const MicroKernel<float>& avx2_kernel_f32();
+const MicroKernel<double>& avx512_kernel_f64();
+const MicroKernel<double>& avx2_kernel_f64();
+
+// Packing, shared by every ISA file (plain C++; each file compiles it with its own vector flags).
+// pack_a_panels: op(A) is mc×kc; trans means A is stored kc×mc (A[k*lda + i]).
+template <typename T, int MR>
+void pack_a_panels(bool trans, int64_t mc, int64_t kc, const T* a, int64_t lda, T* ap) {
+  for (int64_t i0 = 0; i0 < mc; i0 += MR, ap += kc * MR) {
+    const int64_t m = mc - i0 < MR ? mc - i0 : MR;
+    if (trans) {
+      const T* src = a + i0;
+      if (m == MR) {
+        for (int64_t k = 0; k < kc; ++k)
+          for (int i = 0; i < MR; ++i) ap[k * MR + i] = src[k * lda + i];
+      } else {
+        for (int64_t k = 0; k < kc; ++k)
+          for (int i = 0; i < MR; ++i) ap[k * MR + i] = i < m ? src[k * lda + i] : T(0);
+      }
+    } else {
+      const T* src = a + i0 * lda;
+      if (m == MR) {
+        // Four k at a time keeps the strided writes of one row in few cache lines.
+        int64_t k = 0;
+        for (; k + 4 <= kc; k += 4)
+          for (int i = 0; i < MR; ++i) {
+            const T* s = src + i * lda + k;
+            ap[(k + 0) * MR + i] = s[0];
+            ap[(k + 1) * MR + i] = s[1];
+            ap[(k + 2) * MR + i] = s[2];
+            ap[(k + 3) * MR + i] = s[3];
+          }
+        for (; k < kc; ++k)
+          for (int i = 0; i < MR; ++i) ap[k * MR + i] = src[i * lda + k];
+      } else {
+        for (int64_t k = 0; k < kc; ++k)
+          for (int i = 0; i < MR; ++i) ap[k * MR + i] = i < m ? src[i * lda + k] : T(0);
+      }
+    }
+  }
+}
+
+// pack_b_panels: op(B) is kc×nc; trans means B is stored nc×kc (B[j*ldb + k]).
+template <typename T, int NR>
+void pack_b_panels(bool trans, int64_t kc, int64_t nc, const T* b, int64_t ldb, T* bp) {
+  for (int64_t j0 = 0; j0 < nc; j0 += NR, bp += kc * NR) {
+    const int64_t n = nc - j0 < NR ? nc - j0 : NR;
+    if (!trans) {
+      const T* src = b + j0;
+      if (n == NR) {
+        for (int64_t k = 0; k < kc; ++k)
+          for (int j = 0; j < NR; ++j) bp[k * NR + j] = src[k * ldb + j];
+      } else {
+        for (int64_t k = 0; k < kc; ++k)
+          for (int j = 0; j < NR; ++j) bp[k * NR + j] = j < n ? src[k * ldb + j] : T(0);
+      }
+    } else {
+      const T* src = b + j0 * ldb;
+      if (n == NR) {
+        int64_t k = 0;
+        for (; k + 4 <= kc; k += 4)
+          for (int j = 0; j < NR; ++j) {
+            const T* s = src + j * ldb + k;
+            bp[(k + 0) * NR + j] = s[0];
+            bp[(k + 1) * NR + j] = s[1];
+            bp[(k + 2) * NR + j] = s[2];
+            bp[(k + 3) * NR + j] = s[3];
+          }
+        for (; k < kc; ++k)
+          for (int j = 0; j < NR; ++j) bp[k * NR + j] = src[j * ldb + k];
+      } else {
+        for (int64_t k = 0; k < kc; ++k)
+          for (int j = 0; j < NR; ++j) bp[k * NR + j] = j < n ? src[j * ldb + k] : T(0);
+      }
+    }
+  }
+}
+
+// A portable register-blocked kernel (the compiler vectorises the j loop); used for double.
+template <typename T, int MR, int NR>
+void kernel_generic(int64_t kc, const T* ap, const T* bp, T* c, int64_t ldc, T alpha, T beta) {
+  T acc[MR][NR] = {};
+  for (int64_t k = 0; k < kc; ++k, ap += MR, bp += NR)
+    for (int i = 0; i < MR; ++i)
+      for (int j = 0; j < NR; ++j) acc[i][j] = std::fma(ap[i], bp[j], acc[i][j]);
+  for (int i = 0; i < MR; ++i) {
+    T* row = c + i * ldc;
+    if (beta == T(0)) {
+      for (int j = 0; j < NR; ++j) row[j] = alpha * acc[i][j];
+    } else {
+      for (int j = 0; j < NR; ++j) row[j] = std::fma(alpha, acc[i][j], beta * row[j]);
+    }
+  }
+}
+
+}  // namespace t2m::gemm_detail
