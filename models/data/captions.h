@@ -3,9 +3,9 @@
 // The data sets have no free text. A caption is built from one content template and one style:
 //   template  "{s} walks forward{a}"             ({s} = subject slot, {a} = manner slot, each exactly once)
 //   style     subjects {"an elderly person", ...}, adverbs {"slowly, like an old person", "stiffly", ...}
-// and one of two forms, chosen at random: styled subject + empty manner ("an elderly person walks forward") or
-// neutral subject + style adverb ("someone walks forward stiffly"). The "normal" style always uses a neutral
-// subject with an optional mild adverb. All text is lower case without a final period.
+// and one of two forms, chosen at random (1/2 each): styled subject + empty manner ("an elderly person walks
+// forward") or neutral subject + style adverb ("someone walks forward stiffly"). The "normal" style's adverbs
+// include "" (no manner phrase). All text is lower case without a final period.
 // Every template and word list is printed by captions_markdown() into docs/CAPTIONS.md (a test keeps them equal).
 //
 // Determinism: caption (content, style, seed, index) draws 4 x 32 random bits from a counter-based generator
@@ -63,7 +63,7 @@ std::string swap_left_right(const std::string& text);
 // "<a>, then <b>" (the compositional caption).
 std::string compose_captions(const std::string& a, const std::string& b);
 
-// 4 x 32 random bits for (seed, key, counter): Philox4x32-10 when tensor/rng provides it.
+// 4 x 32 random bits for (seed, key, counter): a pure function of its arguments (counter-based).
 void caption_random_bits(uint64_t seed, uint64_t key, uint64_t counter, uint32_t out[4]);
 
 // The generated part of docs/CAPTIONS.md: every template of every content and every style's words, as Markdown.
