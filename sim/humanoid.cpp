@@ -88,9 +88,9 @@ std::string body_geoms(int j) {
                {(t.x - heel) / 2, 0.045, (top - bottom) / 2});
   }
   if (starts("Toes")) {
-    const double len = 0.06;
-    return box(n + "_geom", {len / 2, 0, (-kToeSoleBelowJoint + -0.015) / 2},
-               {len / 2, 0.045, (kToeSoleBelowJoint - 0.015) / 2});
+    // Sole of the toes on the floor plane of the reference pose (the toe joint is 3.4 cm up there).
+    const double len = 0.06, depth = std::min(kToeSoleBelowJoint, humanoid_hips_height() + rest_joint_pos(j)[2]);
+    return box(n + "_geom", {len / 2, 0, (-depth - 0.012) / 2}, {len / 2, 0.045, (depth - 0.012) / 2});
   }
   throw Error("humanoid_mjcf: no geometry rule for joint " + n);
 }
