@@ -9,5 +9,6 @@
 #include "autograd/ops_linalg.h"
 #include "autograd/ops_reduce.h"
 #include "autograd/ops_shape.h"
+#include "autograd/ops_softmax.h"
 #include "autograd/ops_unary.h"
 #include "autograd/variable.h"

@@ -18,12 +18,12 @@ namespace {
 std::string label(const VariableImpl& v) { return v.name.empty() ? std::string() : " '" + v.name + "'"; }
 
 // grad (may be undefined) += g; the first gradient is copied so .grad never aliases another tensor.
-void accumulate_into(Tensor& grad, const Tensor& g, const VariableImpl& v) {
+// A grad of another shape/dtype (the data was replaced by set_data) is replaced, not added to.
+void accumulate_into(Tensor& grad, const Tensor& g) {
   if (!grad.defined() || grad.shape() != g.shape() || grad.dtype() != g.dtype()) {
     grad = g.clone();
     return;
   }
-  (void)v;
   add_(grad, g);
 }
 
@@ -81,7 +81,7 @@ void Variable::backward(const Tensor& seed, bool retain_graph) const {
     }
     Node* n = v->grad_fn.get();
     if (!n) {
-      if (g.defined() && v->requires_grad) accumulate_into(v->grad, g, *v);
+      if (g.defined() && v->requires_grad) accumulate_into(v->grad, g);
       continue;
     }
     if (!g.defined()) {
@@ -91,7 +91,7 @@ void Variable::backward(const Tensor& seed, bool retain_graph) const {
     if (n->released || !n->backward)
       throw Error("backward: graph already freed at op '" + n->op +
                   "'; pass retain_graph=true to the first backward() to run backward through it again");
-    if (v->retains_grad) accumulate_into(v->grad, g, *v);
+    if (v->retains_grad) accumulate_into(v->grad, g);
     std::vector<bool> need(n->inputs.size());
     for (size_t i = 0; i < need.size(); ++i) need[i] = n->inputs[i] != nullptr;
     std::vector<Tensor> gin = n->backward(g, need);

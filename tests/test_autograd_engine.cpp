@@ -219,6 +219,21 @@ TEST(AutogradEngine, WhereAndMaskedFillRouteGradients) {
   EXPECT_EQ(values(b.grad()), (std::vector<double>{0, 2, 0}));
 }
 
+TEST(AutogradEngine, SoftmaxIsStableAndMatchesHandValues) {
+  // softmax([1000, 1001]) = [1, e] / (1 + e); naive exp would overflow float32.
+  const double p0 = 1.0 / (1.0 + std::exp(1.0)), p1 = 1.0 - p0;
+  Variable x = Variable::parameter(vec({1000.0, 1001.0}));
+  Variable y = ag::softmax(x, 0);
+  EXPECT_NEAR(values(y.data())[0], p0, 1e-6);
+  EXPECT_NEAR(values(y.data())[1], p1, 1e-6);
+  Variable ls = ag::log_softmax(x, 0);
+  EXPECT_NEAR(values(ls.data())[0], std::log(p0), 1e-5);
+  // d/dx of -log_softmax(x)[1] = softmax(x) - onehot(1)
+  ag::sum(ag::select(ls, 0, 1) * -1.0).backward();
+  EXPECT_NEAR(values(x.grad())[0], p0, 1e-6);
+  EXPECT_NEAR(values(x.grad())[1], p1 - 1.0, 1e-6);
+}
+
 TEST(AutogradEngine, ZeroSizeDims) {
   Variable x = Variable::parameter(Tensor::zeros({0, 3}));
   Variable w = Variable::parameter(vec({1, 2, 3}));

@@ -151,6 +151,9 @@ std::vector<Row> rows() {
       {"logsumexp", {A({3, 4})}, AG(ag::logsumexp(v[0], 1)), REF(logsumexp(t[0], 1))},
       {"logsumexp_keep", {A({2, 3, 4})}, AG(ag::logsumexp(v[0], 0, true)), REF(logsumexp(t[0], 0, true))},
       {"max_values", {A({3, 5})}, AG(ag::max(v[0], 1).values), REF(max(t[0], 1).values)},
+      {"softmax", {A({3, 4})}, AG(ag::softmax(v[0], 1)), REF(exp(sub(t[0], logsumexp(t[0], 1, true))))},
+      {"softmax_dim0_t", {A({3, 4}, 't')}, AG(ag::softmax(v[0], 0)), REF(exp(sub(t[0], logsumexp(t[0], 0, true))))},
+      {"log_softmax", {A({2, 3, 4})}, AG(ag::log_softmax(v[0], -1)), REF(sub(t[0], logsumexp(t[0], -1, true)))},
       // ---- matrix products ----
       {"matmul_2d", {A({3, 4}), A({4, 5})}, AG(ag::matmul(v[0], v[1])), REF(matmul(t[0], t[1]))},
       {"matmul_views", {A({3, 4}, 't'), A({4, 5}, 's')}, AG(ag::matmul(v[0], v[1])), REF(matmul(t[0], t[1]))},
@@ -266,7 +269,7 @@ TEST(AutogradOpTable, NamesAreUniqueAndCoverAllFamilies) {
                            "mean_all", "amax_all", "amin_dim", "logsumexp", "matmul_2d", "matmul_t_a", "reshape",
                            "transpose", "permute", "slice_step", "select", "narrow", "expand", "squeeze",
                            "unsqueeze", "flatten", "contiguous", "concat0", "stack", "split", "chunk",
-                           "index_select0", "gather1"})
+                           "index_select0", "gather1", "softmax", "log_softmax"})
     EXPECT_TRUE(names.count(must)) << "missing row " << must;
 }
 
