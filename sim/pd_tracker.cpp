@@ -1,0 +1,86 @@
+// pd_tracker.cpp — PD tracking of a reference trajectory with metrics (see pd_tracker.h).
+#include "sim/pd_tracker.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "tensor/tensor.h"
+
+namespace t2m::sim {
+
+PdResult track_pd(Env& env, const QposTrajectory& ref, const PdOptions& opt) {
+  const mjModel* m = env.model();
+  const Humanoid& h = env.humanoid();
+  if (!h.is_humanoid()) throw Error("track_pd: the env's model is not the t2m humanoid");
+  if (ref.nq != m->nq || ref.nv != m->nv || ref.qpos.size() != (size_t)ref.frames * m->nq ||
+      ref.qvel.size() != (size_t)ref.frames * m->nv || ref.frames < 1)
+    throw Error("track_pd: reference has " + std::to_string(ref.frames) + " frames, nq " + std::to_string(ref.nq) +
+                ", nv " + std::to_string(ref.nv) + " (model nq " + std::to_string(m->nq) + ", nv " +
+                std::to_string(m->nv) + ")");
+  const int T = ref.frames, nu = m->nu, B = kNumJoints;
+  const std::vector<float> ref_pos = replay_joint_positions(h, ref);
+  // Per actuator: the joint's qpos / dof address and the feed-forward factor kd / kp.
+  std::vector<int> qadr(nu), dadr(nu);
+  std::vector<double> ff(nu), ctrl(nu);
+  for (int k = 0; k < nu; ++k) {
+    const int jid = m->actuator_trnid[2 * k];
+    qadr[k] = m->jnt_qposadr[jid];
+    dadr[k] = m->jnt_dofadr[jid];
+    const double kp = m->actuator_gainprm[mjNGAIN * k];
+    ff[k] = (opt.velocity_feedforward && kp > 0) ? m->dof_damping[dadr[k]] / kp : 0.0;
+  }
+  PdResult r;
+  r.frames = T;
+  r.simulated.frames = T;
+  r.simulated.fps = ref.fps;
+  r.simulated.nq = m->nq;
+  r.simulated.nv = m->nv;
+  r.simulated.qpos.resize((size_t)T * m->nq);
+  r.simulated.qvel.resize((size_t)T * m->nv);
+  env.reset(ref.qpos.data(), ref.qvel.data(), nullptr);
+  double sum = 0;
+  bool failed = false;
+  const mjData* d = env.data();
+  const auto& bodies = h.tracked_bodies();
+  for (int t = 0; t < T; ++t) {
+    if (t > 0) {
+      const double* qr = ref.qpos.data() + (size_t)t * m->nq;
+      const double* vr = ref.qvel.data() + (size_t)t * m->nv;
+      for (int k = 0; k < nu; ++k) {
+        double c = qr[qadr[k]] + ff[k] * vr[dadr[k]];
+        if (m->actuator_ctrllimited[k])
+          c = std::clamp(c, m->actuator_ctrlrange[2 * k], m->actuator_ctrlrange[2 * k + 1]);
+        ctrl[k] = c;
+      }
+      env.step_targets(ctrl.data(), nullptr);
+    }
+    std::copy(d->qpos, d->qpos + m->nq, r.simulated.qpos.begin() + (size_t)t * m->nq);
+    std::copy(d->qvel, d->qvel + m->nv, r.simulated.qvel.begin() + (size_t)t * m->nv);
+    double frame_max = 0;
+    for (int j = 0; j < B; ++j) {
+      const double* p = d->xpos + 3 * bodies[j];
+      const float* q = ref_pos.data() + ((size_t)t * B + j) * 3;
+      const double e = std::sqrt((p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) +
+                                 (p[2] - q[2]) * (p[2] - q[2]));
+      frame_max = std::max(frame_max, e);
+      if (t > 0) sum += e;
+    }
+    if (!std::isfinite(frame_max) || env.diverged()) frame_max = INFINITY;
+    r.max_error_m = std::max(r.max_error_m, frame_max);
+    if (frame_max >= opt.fail_distance) failed = true;
+    if (!failed) r.frames_ok = t + 1;
+    const double root_z = d->xpos[3 * bodies[0] + 2], ref_z = ref_pos[(size_t)t * B * 3 + 2];
+    if (root_z < opt.fall_height && ref_z >= opt.fall_height) r.fell = true;
+    if (t == T - 1) {
+      const double dx = d->xpos[3 * bodies[0]] - ref_pos[(size_t)t * B * 3];
+      const double dy = d->xpos[3 * bodies[0] + 1] - ref_pos[(size_t)t * B * 3 + 1];
+      r.root_drift_m = std::sqrt(dx * dx + dy * dy);
+    }
+  }
+  r.success = !failed;
+  r.mpjpe_m = T > 1 ? sum / ((double)(T - 1) * B) : 0.0;
+  return r;
+}
+
+}  // namespace t2m::sim

@@ -1,0 +1,44 @@
+// pd_tracker.h — the PD tracking baseline: follow a reference qpos trajectory with the humanoid's position
+// actuators, no learning, and measure how well the simulated body follows the reference.
+//
+// Control at 30 Hz: for the step t -> t+1 the actuator target of hinge k is
+//     target_k = qref[t+1, k] + (kd_k / kp_k) qdref[t+1, k]          (velocity feed-forward, optional)
+// which makes kp (target - q) - kd qd = kp (qref - q) + kd (qdref - qd): a PD law on position and velocity
+// (kd = joint damping, kp = actuator gain). Targets are clamped to the actuator range. The root is not actuated.
+// Assist: EnvOptions::assist_force (vertical force on the root, N); 0 by default and reported in the result.
+// The episode starts from the reference state (qpos[0], qvel[0]) and always runs the whole clip.
+// Metrics (positions = the 21 body origins = joint positions):
+//   per-frame error e_t = max_j |p_sim - p_ref|;  success = e_t < fail_distance (0.5 m) on every frame;
+//   mpjpe = mean over frames t >= 1 and joints of |p_sim - p_ref|;  root_drift = horizontal root distance at the
+//   last frame;  fell = the root drops below fall_height (0.5 m) on some frame where the reference root is above it;
+//   frames_ok = frames before the first e_t >= fail_distance.
+// Errors: trajectory sizes not matching the env's model or a model that is not our humanoid -> t2m::Error.
+#pragma once
+#include <vector>
+
+#include "sim/env.h"
+#include "sim/retarget.h"
+
+namespace t2m::sim {
+
+struct PdOptions {
+  bool velocity_feedforward = true;
+  double fail_distance = 0.5;  // m
+  double fall_height = 0.5;    // m
+};
+
+struct PdResult {
+  int frames = 0;
+  bool success = false;
+  bool fell = false;
+  double mpjpe_m = 0;
+  double root_drift_m = 0;
+  double max_error_m = 0;
+  int frames_ok = 0;
+  double assist_force = 0;
+  QposTrajectory simulated;  // the simulated qpos / qvel per frame (frame 0 = the reference start)
+};
+
+PdResult track_pd(Env& env, const QposTrajectory& ref, const PdOptions& opt = {});
+
+}  // namespace t2m::sim
