@@ -24,6 +24,11 @@ class Generator {
 
 // Philox4x32-10 block: four 32-bit outputs for (key = seed, counter).
 void philox4x32(uint64_t seed, uint64_t counter, uint32_t out[4]);
+// The raw Philox4x32-10 bijection on a full 128-bit counter and 64-bit key (philox4x32 above uses
+// ctr = {lo32(counter), hi32(counter), 0, 0}, key = {lo32(seed), hi32(seed)}). For known-answer tests.
+void philox4x32_block(const uint32_t ctr[4], const uint32_t key[2], uint32_t out[4]);
+// Counters per draw: f32 uniform/normal/bernoulli use one counter per 4 values, f64 uniform/normal and randint
+// one per 2 values, randperm(n) one per 2 swaps; the Generator advances by that many.
 
 Tensor rand_uniform(const Shape& shape, Generator& gen, double lo = 0.0, double hi = 1.0, DType dtype = DType::f32);
 Tensor rand_normal(const Shape& shape, Generator& gen, double mean = 0.0, double std = 1.0, DType dtype = DType::f32);
