@@ -37,12 +37,16 @@ std::vector<float> mirror_features(const std::vector<float>& f) {
   if (f.empty() || f.size() % D != 0)
     throw Error("mirror_features: feature buffer has " + std::to_string(f.size()) +
                 " floats, not a positive multiple of " + std::to_string(D));
-  const size_t T = f.size() / D;
   std::vector<float> o(f.size());
+  mirror_feature_rows(f.data(), o.data(), (int64_t)(f.size() / D));
+  return o;
+}
+
+void mirror_feature_rows(const float* in, float* out, int64_t T) {
   static constexpr int kContactSwap[4] = {2, 3, 0, 1};  // Foot_L, Toes_L, Foot_R, Toes_R
-  for (size_t t = 0; t < T; ++t) {
-    const float* a = f.data() + t * D;
-    float* b = o.data() + t * D;
+  for (int64_t t = 0; t < T; ++t) {
+    const float* a = in + t * D;
+    float* b = out + t * D;
     b[kFeatRootYawVel] = -a[kFeatRootYawVel];
     b[kFeatRootVel] = a[kFeatRootVel];
     b[kFeatRootVel + 1] = -a[kFeatRootVel + 1];
@@ -64,7 +68,6 @@ std::vector<float> mirror_features(const std::vector<float>& f) {
     }
     for (int k = 0; k < 4; ++k) b[kFeatContact + k] = a[kFeatContact + kContactSwap[k]];
   }
-  return o;
 }
 
 }  // namespace t2m::data

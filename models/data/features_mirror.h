@@ -12,6 +12,7 @@
 // mirror_features(motion_to_features(m)) equals motion_to_features(mirror_motion(m)) up to float rounding.
 // Errors: t2m::Error on inconsistent sizes (see check_motion) or a feature buffer not a multiple of kFeatureDim.
 #pragma once
+#include <cstdint>
 #include <vector>
 
 #include "models/data/features.h"
@@ -20,5 +21,7 @@ namespace t2m::data {
 
 sim::Motion mirror_motion(const sim::Motion& m);
 std::vector<float> mirror_features(const std::vector<float>& f);  // [T, kFeatureDim] -> same shape
+// The same on raw rows: in [T, kFeatureDim] -> out [T, kFeatureDim]; in and out must not overlap; no allocation.
+void mirror_feature_rows(const float* in, float* out, int64_t T);
 
 }  // namespace t2m::data
