@@ -9,6 +9,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <random>
 #include <sstream>
 
 #include "models/data/dataset.h"
@@ -293,4 +294,35 @@ TEST(Dataset, RealDataset1UnpacksAndEveryClipParses) {
     EXPECT_GT(c.frames, 0);
   }
   EXPECT_GT(m.total_duration(), 10 * 60.0);
+}
+
+TEST(Dataset, MutatedArchivesExtractOrThrowError) {
+  // Byte-level mutants of a small tar (then compressed) and of the compressed stream: extraction must succeed or
+  // throw t2m::Error, and must never write outside the destination.
+  TempDir t("tarfuzz");
+  std::string tar;
+  tar_entry(tar, "d/", '5', "");
+  tar_entry(tar, "d/a.txt", '0', std::string(600, 'a'));
+  tar_entry(tar, "././@LongLink", 'L', std::string("d/") + std::string(120, 'l') + std::string(1, '\0'));
+  tar_entry(tar, "x", '0', "b");
+  const std::string base = tar_end(tar);
+  std::mt19937 rng(5);
+  int ok = 0, rejected = 0;
+  for (int i = 0; i < 200; ++i) {
+    std::string s = base;
+    for (int k = 0, n = 1 + (int)(rng() % 4); k < n; ++k) s[rng() % s.size()] = (char)rng();
+    std::string z = zstd_compress(s);
+    if (i % 4 == 3) z[rng() % z.size()] ^= (char)(1 + rng() % 255);
+    spit(t.path / "m.tar.zst", z);
+    try {
+      extract_tar_zst((t.path / "m.tar.zst").string(), (t.path / "out").string());
+      ++ok;
+    } catch (const Error&) {
+      ++rejected;
+    }
+  }
+  EXPECT_GT(ok, 0);
+  EXPECT_GT(rejected, 0);
+  for (const auto& e : fs::directory_iterator(t.path))
+    EXPECT_TRUE(e.path().filename() == "out" || e.path().filename() == "m.tar.zst") << e.path();
 }
