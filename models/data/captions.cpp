@@ -4,6 +4,7 @@
 #include <cctype>
 #include <set>
 
+#include "tensor/rng.h"
 #include "tensor/tensor.h"
 
 namespace t2m::data {
@@ -45,17 +46,8 @@ const CaptionStyle& caption_style(const std::string& label) {
 }
 
 void caption_random_bits(uint64_t seed, uint64_t key, uint64_t counter, uint32_t out[4]) {
-  // Counter-based: splitmix64 over (seed, label key, counter). TODO(rng): switch to t2m::philox4x32 once
-  // tensor/rng.cpp is committed (same contract: a pure function of its arguments).
-  auto mix = [](uint64_t z) {
-    z += 0x9e3779b97f4a7c15ull;
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    return z ^ (z >> 31);
-  };
-  uint64_t a = mix(seed ^ mix(key) ^ mix(mix(counter) + 1));
-  uint64_t b = mix(a + 0x632be59bd9b4e019ull);
-  out[0] = (uint32_t)a; out[1] = (uint32_t)(a >> 32); out[2] = (uint32_t)b; out[3] = (uint32_t)(b >> 32);
+  // Philox4x32-10 (tensor/rng.h) keyed by the seed mixed with the label key; the counter is the paraphrase index.
+  philox4x32(seed ^ (key * 0x9e3779b97f4a7c15ull + 0x632be59bd9b4e019ull), counter, out);
 }
 
 namespace {

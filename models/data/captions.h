@@ -63,7 +63,7 @@ std::string swap_left_right(const std::string& text);
 // "<a>, then <b>" (the compositional caption).
 std::string compose_captions(const std::string& a, const std::string& b);
 
-// 4 x 32 random bits for (seed, key, counter): a pure function of its arguments (counter-based).
+// 4 x 32 random bits for (seed, key, counter): Philox4x32-10 (tensor/rng.h), a pure function of its arguments.
 void caption_random_bits(uint64_t seed, uint64_t key, uint64_t counter, uint32_t out[4]);
 
 // The generated part of docs/CAPTIONS.md: every template of every content and every style's words, as Markdown.

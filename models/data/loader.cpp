@@ -9,34 +9,24 @@
 #include "models/data/captions.h"
 #include "models/data/features.h"
 #include "models/data/features_mirror.h"
+#include "tensor/rng.h"
 
 namespace t2m::data {
 
+namespace {
+// The Philox key of a (seed, stream) pair.
+uint64_t stream_key(uint64_t seed, uint64_t stream) { return seed + stream * 0x9e3779b97f4a7c15ull; }
+}  // namespace
+
 void loader_random_bits(uint64_t seed, uint64_t stream, uint64_t counter, uint32_t out[4]) {
-  // splitmix64 over (seed, stream, counter). TODO(rng): t2m::philox4x32 once tensor/rng.cpp is committed.
-  auto mix = [](uint64_t z) {
-    z += 0x9e3779b97f4a7c15ull;
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    return z ^ (z >> 31);
-  };
-  uint64_t a = mix(mix(seed) ^ mix(stream + 0x51afd7ed558ccd00ull) ^ mix(mix(counter) + 7));
-  uint64_t b = mix(a + 0x632be59bd9b4e019ull);
-  out[0] = (uint32_t)a; out[1] = (uint32_t)(a >> 32); out[2] = (uint32_t)b; out[3] = (uint32_t)(b >> 32);
+  philox4x32(stream_key(seed, stream), counter, out);
 }
 
 std::vector<int> shuffled_indices(int n, uint64_t seed, uint64_t stream) {
   if (n < 0) throw Error("shuffled_indices: n must be >= 0, got " + std::to_string(n));
-  std::vector<int> p(n);
-  for (int i = 0; i < n; ++i) p[i] = i;
-  for (int i = n - 1; i > 0; --i) {
-    uint32_t r[4];
-    loader_random_bits(seed, stream, (uint64_t)i, r);
-    uint64_t u = ((uint64_t)r[0] << 32) | r[1];
-    int j = (int)(u % (uint64_t)(i + 1));
-    std::swap(p[i], p[j]);
-  }
-  return p;
+  Generator gen(stream_key(seed, stream));
+  std::vector<int64_t> p = randperm(n, gen);  // the project RNG: Fisher-Yates on Philox draws
+  return std::vector<int>(p.begin(), p.end());
 }
 
 MotionLoader::MotionLoader(const std::vector<MotionClip>* clips, const FeatureStats& stats, const LoaderConfig& cfg)

@@ -12,9 +12,10 @@
 //   - normalisation with the FeatureStats given (train split only; see features_norm.h).
 // Batch: x (B, W, D) float32, mask (B, W) float32 (1 = real frame, 0 = padding), plus per-item captions and
 // bookkeeping. The last batch of an epoch is smaller unless cfg.drop_last.
-// Determinism: the order is a Fisher-Yates shuffle driven by a counter-based generator keyed by (seed, epoch), and
-// each item's window/mirror/caption draws are keyed by (seed, epoch, position in the epoch): the same seed gives
-// the same batches, independent of batch size for the per-item choices, and no state but (epoch, position).
+// Determinism: the order is t2m::randperm (Fisher-Yates on Philox4x32-10, tensor/rng.h) with a Generator keyed by
+// (seed, epoch), and each item's window/mirror/caption draws are Philox blocks keyed by (seed, epoch) at counter
+// = position in the epoch: the same seed gives the same batches, the per-item choices do not depend on the batch
+// size, and the only state is (epoch, position).
 // Memory: the loader keeps a pointer to the clips (they must outlive it) and one scratch window; next() allocates
 // only the output tensors.
 // Errors: t2m::Error for an empty clip list, clips with frames < 1 or features not frames x kFeatureDim,
@@ -82,9 +83,9 @@ class MotionLoader {
   std::vector<float> scratch_;   // one window [W, D] for mirroring
 };
 
-// Counter-based random bits for (seed, stream, counter): a pure function of its arguments.
+// Philox4x32-10 bits for (seed, stream, counter): a pure function of its arguments.
 void loader_random_bits(uint64_t seed, uint64_t stream, uint64_t counter, uint32_t out[4]);
-// Fisher-Yates permutation of 0..n-1 driven by loader_random_bits(seed, stream, i).
+// Permutation of 0..n-1: t2m::randperm with a Generator keyed by (seed, stream).
 std::vector<int> shuffled_indices(int n, uint64_t seed, uint64_t stream);
 
 // A clip from a motion: features computed with motion_to_features.
