@@ -1,0 +1,95 @@
+// cmd_bench.cpp — `t2m bench`: times our float GEMM on the micro-suite shapes and prints a table
+// (shape, threads, ms, GFLOP/s, % of FMA peak, kernel), optionally with Eigen side by side.
+// Only built with the benchmark library (T2M_HAVE_BENCH, i.e. -DT2M_BUILD_BENCH=ON).
+#ifdef T2M_HAVE_BENCH
+#include <cstdio>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "bench/lib/gemm_bench.h"
+#include "tensor/gemm.h"
+#include "tensor/parallel.h"
+#include "tensor/tensor.h"
+#include "tools/command.h"
+
+namespace {
+
+struct BenchOptions {
+  std::string threads = "1,2";
+  std::string shapes = "all";
+  std::string kernel = "auto";
+  int reps = 10;
+  int warmup = 2;
+  bool eigen = false;
+};
+
+std::vector<int> parse_threads(const std::string& s) {
+  std::vector<int> v;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    int n = 0;
+    try {
+      size_t used = 0;
+      n = std::stoi(item, &used);
+      if (used != item.size()) n = 0;
+    } catch (const std::exception&) {
+      n = 0;
+    }
+    if (n < 1) throw t2m::Error("bench: bad thread count '" + item + "' in --threads " + s);
+    v.push_back(n);
+  }
+  if (v.empty()) throw t2m::Error("bench: empty --threads");
+  return v;
+}
+
+void run_bench(const BenchOptions& o) {
+  using namespace t2m::bench;
+  const auto shapes = parse_gemm_shapes(o.shapes);
+  const auto threads = parse_threads(o.threads);
+  if (o.reps < 1) throw t2m::Error("bench: --reps must be >= 1, got " + std::to_string(o.reps));
+  if (o.warmup < 0) throw t2m::Error("bench: --warmup must be >= 0, got " + std::to_string(o.warmup));
+  t2m::gemm_force_kernel(o.kernel.c_str());
+  const int saved = t2m::get_num_threads();
+  std::printf("# t2m bench: float GEMM, median of %d reps after %d warm-up; peak = %.0f GFLOP/s per thread\n", o.reps,
+              o.warmup, kPeakGflopsPerCore);
+  std::printf("%-22s %7s %10s %9s %7s %9s %-7s", "shape (MxNxK:op)", "threads", "ms", "GFLOP/s", "%peak", "best GF",
+              "kernel");
+  if (o.eigen) std::printf(" %10s %9s %6s", "eigen ms", "eigen GF", "ratio");
+  std::printf("\n");
+  for (const auto& s : shapes) {
+    GemmOperands ops(s);
+    for (int t : threads) {
+      const GemmTiming r = time_gemm(ops, t, o.reps, o.warmup);
+      std::printf("%-22s %7d %10.3f %9.1f %6.1f%% %9.1f %-7s", s.name().c_str(), t, r.median_ms, r.gflops, r.pct_peak,
+                  s.flops() / (r.best_ms * 1e6), t2m::gemm_kernel_name());
+      if (o.eigen) {
+        const GemmTiming e = time_eigen(ops, t, o.reps, o.warmup);
+        std::printf(" %10.3f %9.1f %5.2fx", e.median_ms, e.gflops, r.gflops / e.gflops);  // ratio of medians
+      }
+      std::printf("\n");
+      std::fflush(stdout);
+    }
+  }
+  t2m::set_num_threads(saved);
+  t2m::gemm_force_kernel("auto");
+}
+
+void add_bench(CLI::App& app) {
+  auto opts = std::make_shared<BenchOptions>();
+  auto* c = app.add_subcommand("bench", "Time our float GEMM on the micro-suite shapes (GFLOP/s, % of FMA peak)");
+  c->add_option("--threads", opts->threads, "comma list of thread counts")->capture_default_str();
+  c->add_option("--reps", opts->reps, "timed repetitions per shape (the median is reported)")->capture_default_str();
+  c->add_option("--warmup", opts->warmup, "untimed repetitions before timing")->capture_default_str();
+  c->add_option("--shapes", opts->shapes, "micro | all | comma list of MxNxK[:nn|tn|nt|tt]")->capture_default_str();
+  c->add_option("--kernel", opts->kernel, "auto | avx512 | avx2")->capture_default_str();
+  c->add_flag("--eigen", opts->eigen, "also time Eigen on the same shapes");
+  c->callback([opts] { run_bench(*opts); });
+}
+
+}  // namespace
+
+T2M_COMMAND(add_bench);
+#endif  // T2M_HAVE_BENCH
