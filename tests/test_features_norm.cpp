@@ -47,7 +47,7 @@ TEST(FeaturesNorm, NormalisedTrainFeaturesHaveZeroMeanUnitStd) {
   const double n = 240;
   for (int d = 0; d < kFeatureDim; ++d) {
     EXPECT_NEAR(sum[d] / n, 0.0, 1e-3) << d;
-    if (s.std[d] > kDefaultStdFloor) {
+    if (s.std[d] > (float)kDefaultStdFloor) {
       EXPECT_NEAR(sq[d] / n, 1.0, 1e-3) << d;
     }
   }
