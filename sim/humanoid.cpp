@@ -150,7 +150,7 @@ std::string humanoid_mjcf(const HumanoidOptions& opt) {
     << "  </asset>\n"
     << "  <worldbody>\n"
     << "    <light name=\"sun\" directional=\"true\" pos=\"0 0 5\" dir=\"-0.3 0.2 -1\" castshadow=\"true\"/>\n"
-    << "    <geom name=\"floor\" type=\"plane\" size=\"100 100 0.1\" material=\"grid\" contype=\"1\" "
+    << "    <geom name=\"floor\" type=\"plane\" size=\"100 100 0.1\" material=\"grid\" rgba=\"1 1 1 1\" contype=\"1\" "
        "conaffinity=\"1\"/>\n";
   emit_body(x, 0, opt, 2);
   x << "  </worldbody>\n  <actuator>\n";

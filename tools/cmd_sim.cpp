@@ -1,0 +1,335 @@
+// cmd_sim.cpp — the simulation subcommands of `t2m`:
+//   t2m retarget  [clip selection] [--out J]    retarget + kinematic replay, joint-position error per clip
+//   t2m track-pd  [clip selection] [--out J]    PD tracking baseline: success, MPJPE, root drift, fall rate
+//   t2m export    --bvh IN --out OUT.bvh [--mode pd|replay]   simulated (or replayed) motion -> BVH
+//   t2m render    --bvh IN --out OUT.mp4 [--frames-dir D] [--mode replay|pd]   offscreen video / PNG frames
+// Clip selection: --bvh FILE (repeatable) or every *.bvh under --clips DIR (default $T2M_CACHE/bandai, else
+// ~/.cache/t2m/bandai), filtered by --split (all | train | val | test: models/data/splits; take0: takes ending
+// in 0) and --max-clips. Clips run in parallel (OpenMP, --threads). Every run prints a summary and, with --out,
+// writes a JSON summary with per-clip numbers.
+#include <omp.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "models/data/splits.h"
+#include "sim/bvh.h"
+#include "sim/env.h"
+#include "sim/export.h"
+#include "sim/pd_tracker.h"
+#include "sim/render.h"
+#include "sim/retarget.h"
+#include "sim/skeleton.h"
+#include "tensor/tensor.h"
+#include "tools/command.h"
+
+namespace {
+
+using t2m::Error;
+using json = nlohmann::json;
+namespace fs = std::filesystem;
+namespace sim = t2m::sim;
+
+struct ClipArgs {
+  std::vector<std::string> bvh;
+  std::string clips_dir;
+  std::string split = "all";
+  int max_clips = 0;
+  int threads = 0;
+  std::string out;
+};
+
+void add_clip_options(CLI::App* c, ClipArgs& a, const char* default_split) {
+  a.split = default_split;
+  c->add_option("--bvh", a.bvh, "BVH file(s) to use instead of a clip directory");
+  c->add_option("--clips", a.clips_dir, "directory searched recursively for *.bvh (default: the t2m cache)");
+  c->add_option("--split", a.split, "all | train | val | test | take0")->capture_default_str();
+  c->add_option("--max-clips", a.max_clips, "use at most N clips (0 = all), after sorting by name");
+  c->add_option("--threads", a.threads, "OpenMP threads (0 = default)");
+  c->add_option("--out", a.out, "write a JSON summary here");
+}
+
+std::string default_clips_dir() {
+  if (const char* c = std::getenv("T2M_CACHE")) return std::string(c) + "/bandai";
+  const char* home = std::getenv("HOME");
+  return std::string(home ? home : ".") + "/.cache/t2m/bandai";
+}
+
+// name (file stem) -> path, selected and sorted.
+std::vector<std::pair<std::string, std::string>> select_clips(const ClipArgs& a) {
+  std::vector<std::pair<std::string, std::string>> all;
+  if (!a.bvh.empty()) {
+    for (const auto& p : a.bvh) {
+      if (!fs::is_regular_file(p)) throw Error("no such BVH file '" + p + "'");
+      all.emplace_back(fs::path(p).stem().string(), p);
+    }
+  } else {
+    const std::string dir = a.clips_dir.empty() ? default_clips_dir() : a.clips_dir;
+    if (!fs::is_directory(dir))
+      throw Error("clip directory '" + dir + "' does not exist (unpack the data with `t2m data prepare`, or pass "
+                  "--clips DIR / --bvh FILE)");
+    for (const auto& e : fs::recursive_directory_iterator(dir))
+      if (e.is_regular_file() && e.path().extension() == ".bvh") all.emplace_back(e.path().stem().string(), e.path());
+  }
+  std::sort(all.begin(), all.end());
+  std::vector<std::pair<std::string, std::string>> sel;
+  if (a.split == "all") {
+    sel = all;
+  } else if (a.split == "take0") {
+    for (auto& c : all)
+      if (!c.first.empty() && c.first.back() == '0') sel.push_back(c);
+  } else {
+    const t2m::data::Split want = t2m::data::split_from_name(a.split);
+    std::vector<std::string> names;
+    for (auto& c : all) names.push_back(c.first);
+    const auto splits = t2m::data::assign_splits(names);
+    for (auto& c : all)
+      if (splits.at(c.first) == want) sel.push_back(c);
+  }
+  if (a.max_clips > 0 && (int)sel.size() > a.max_clips) sel.resize(a.max_clips);
+  if (sel.empty()) throw Error("no clips selected (split '" + a.split + "')");
+  return sel;
+}
+
+struct Progress {
+  int total;
+  int done = 0;
+  std::chrono::steady_clock::time_point t0 = std::chrono::steady_clock::now();
+  double last = -1;
+  void tick() {
+    ++done;
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (done < total && s - last < 0.5) return;
+    last = s;
+    const double rate = done / std::max(s, 1e-9);
+    std::fprintf(stderr, "\r[%d/%d] %.1f clips/s, ETA %.0f s   ", done, total, rate, (total - done) / rate);
+    if (done == total) std::fprintf(stderr, "\n");
+  }
+};
+
+void write_json(const std::string& path, const json& j) {
+  if (path.empty()) return;
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream f(tmp);
+    if (!f) throw Error("cannot write '" + path + "'");
+    f << j.dump(1) << "\n";
+  }
+  fs::rename(tmp, path);
+  std::printf("wrote %s\n", path.c_str());
+}
+
+sim::Motion load_motion(const std::string& path) { return sim::motion_from_bvh(sim::read_bvh(path)); }
+
+// ---- t2m retarget ----
+void run_retarget(const ClipArgs& a) {
+  const auto clips = select_clips(a);
+  if (a.threads > 0) omp_set_num_threads(a.threads);
+  auto h = sim::Humanoid::create();
+  const int N = (int)clips.size();
+  std::vector<json> rows(N);
+  std::vector<double> mean(N, -1), mx(N, 0), frames(N, 0);
+  Progress prog{N};
+#pragma omp parallel for schedule(dynamic)
+  for (int i = 0; i < N; ++i) {
+    json row = {{"name", clips[i].first}};
+    try {
+      const sim::Motion mo = load_motion(clips[i].second);
+      const sim::QposTrajectory q = sim::retarget(*h, mo);
+      const sim::ReplayError e = sim::replay_error(*h, q, mo);
+      mean[i] = e.mean_m, mx[i] = e.max_m, frames[i] = mo.frames;
+      row.update({{"frames", mo.frames}, {"mean_error_m", e.mean_m}, {"max_error_m", e.max_m},
+                  {"clamped_hinge_values", q.clamped}, {"floor_shift_m", q.floor_shift}});
+    } catch (const std::exception& ex) {
+      row["error"] = ex.what();
+    }
+    rows[i] = row;
+#pragma omp critical
+    prog.tick();
+  }
+  double sum = 0, wsum = 0, fsum = 0, worst = 0;
+  int ok = 0, over2 = 0;
+  for (int i = 0; i < N; ++i)
+    if (mean[i] >= 0) {
+      ++ok, sum += mean[i], wsum += mean[i] * frames[i], fsum += frames[i], worst = std::max(worst, mx[i]);
+      over2 += mean[i] > 0.02;
+    }
+  json s = {{"clips", N},
+            {"clips_ok", ok},
+            {"mean_of_clip_means_m", ok ? sum / ok : 0.0},
+            {"frame_weighted_mean_m", fsum > 0 ? wsum / fsum : 0.0},
+            {"worst_joint_error_m", worst},
+            {"clips_over_2cm_mean", over2}};
+  std::printf("retarget: %d/%d clips, mean joint error %.2f mm (frame-weighted %.2f mm), worst single joint %.1f mm, "
+              "%d clips above 2 cm mean\n",
+              ok, N, 1e3 * s["mean_of_clip_means_m"].get<double>(), 1e3 * s["frame_weighted_mean_m"].get<double>(),
+              1e3 * worst, over2);
+  write_json(a.out, {{"command", "retarget"}, {"split", a.split}, {"summary", s}, {"clips", rows}});
+}
+
+// ---- t2m track-pd ----
+struct PdArgs {
+  ClipArgs clips;
+  double assist = 0;
+  bool no_ff = false;
+  std::string export_dir;
+};
+
+void run_track_pd(const PdArgs& a) {
+  const auto clips = select_clips(a.clips);
+  if (a.clips.threads > 0) omp_set_num_threads(a.clips.threads);
+  auto h = sim::Humanoid::create();
+  if (!a.export_dir.empty()) fs::create_directories(a.export_dir);
+  const int N = (int)clips.size();
+  std::vector<json> rows(N);
+  std::vector<sim::PdResult> res(N);
+  std::vector<char> ok(N, 0);
+  sim::PdOptions po;
+  po.velocity_feedforward = !a.no_ff;
+  Progress prog{N};
+  const auto t0 = std::chrono::steady_clock::now();
+#pragma omp parallel for schedule(dynamic)
+  for (int i = 0; i < N; ++i) {
+    json row = {{"name", clips[i].first}};
+    try {
+      const sim::QposTrajectory ref = sim::retarget(*h, load_motion(clips[i].second));
+      sim::Env env(h, sim::EnvOptions{.substeps = sim::kSubsteps, .assist_force = a.assist});
+      res[i] = sim::track_pd(env, ref, po);
+      res[i].assist_force = a.assist;
+      const auto& r = res[i];
+      ok[i] = 1;
+      row.update({{"frames", r.frames}, {"success", r.success}, {"fell", r.fell}, {"mpjpe_m", r.mpjpe_m},
+                  {"root_drift_m", r.root_drift_m}, {"frames_ok", r.frames_ok}, {"max_error_m", r.max_error_m}});
+      if (!a.export_dir.empty()) sim::export_bvh_file(*h, r.simulated, a.export_dir + "/" + clips[i].first + ".bvh");
+      res[i].simulated = {};  // free the trajectory
+    } catch (const std::exception& ex) {
+      row["error"] = ex.what();
+    }
+    rows[i] = row;
+#pragma omp critical
+    prog.tick();
+  }
+  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  int n = 0, succ = 0, fell = 0;
+  double mpjpe = 0, drift = 0, frac_ok = 0, frames = 0;
+  for (int i = 0; i < N; ++i)
+    if (ok[i]) {
+      ++n, succ += res[i].success, fell += res[i].fell, mpjpe += res[i].mpjpe_m, drift += res[i].root_drift_m;
+      frac_ok += double(res[i].frames_ok) / res[i].frames, frames += res[i].frames;
+    }
+  const double dn = std::max(n, 1);
+  json s = {{"clips", N},
+            {"clips_ok", n},
+            {"success_rate", succ / dn},
+            {"fall_rate", fell / dn},
+            {"mpjpe_m", mpjpe / dn},
+            {"root_drift_m", drift / dn},
+            {"mean_fraction_of_frames_tracked", frac_ok / dn},
+            {"assist_force_n", a.assist},
+            {"velocity_feedforward", !a.no_ff},
+            {"control_steps_per_s", frames / std::max(secs, 1e-9)}};
+  std::printf("track-pd (%s split, %d clips, assist %.0f N%s): success %.1f%%, fall %.1f%%, MPJPE %.1f mm, root drift "
+              "%.2f m, frames tracked %.1f%%, %.0f control steps/s\n",
+              a.clips.split.c_str(), n, a.assist, a.no_ff ? ", no feed-forward" : "", 100 * succ / dn,
+              100 * fell / dn, 1e3 * mpjpe / dn, drift / dn, 100 * frac_ok / dn, s["control_steps_per_s"].get<double>());
+  write_json(a.clips.out, {{"command", "track-pd"}, {"split", a.clips.split}, {"summary", s}, {"clips", rows}});
+}
+
+// ---- t2m export / t2m render ----
+struct OneArgs {
+  std::string bvh, out, frames_dir, mode;
+  double assist = 0;
+  int width = 640, height = 480, max_frames = 0;
+  bool shadows = false;
+};
+
+sim::QposTrajectory trajectory_for(const std::shared_ptr<const sim::Humanoid>& h, const OneArgs& a) {
+  if (a.bvh.empty()) throw Error("--bvh is required");
+  sim::QposTrajectory q = sim::retarget(*h, load_motion(a.bvh));
+  if (a.max_frames > 0 && q.frames > a.max_frames) {
+    q.frames = a.max_frames;
+    q.qpos.resize((size_t)q.frames * q.nq);
+    q.qvel.resize((size_t)q.frames * q.nv);
+  }
+  if (a.mode == "replay") return q;
+  if (a.mode != "pd") throw Error("--mode must be 'replay' or 'pd' (got '" + a.mode + "')");
+  sim::Env env(h, sim::EnvOptions{.substeps = sim::kSubsteps, .assist_force = a.assist});
+  const sim::PdResult r = sim::track_pd(env, q);
+  std::printf("pd: success %d, MPJPE %.1f mm, root drift %.2f m, fell %d, assist %.0f N\n", r.success,
+              1e3 * r.mpjpe_m, r.root_drift_m, r.fell, a.assist);
+  return r.simulated;
+}
+
+void run_export(const OneArgs& a) {
+  if (a.out.empty()) throw Error("export: --out is required");
+  auto h = sim::Humanoid::create();
+  const sim::QposTrajectory q = trajectory_for(h, a);
+  sim::export_bvh_file(*h, q, a.out);
+  std::printf("wrote %s (%d frames, %s)\n", a.out.c_str(), q.frames, a.mode.c_str());
+}
+
+void run_render(const OneArgs& a) {
+  if (a.out.empty() && a.frames_dir.empty()) throw Error("render: give --out FILE.mp4 and/or --frames-dir DIR");
+  auto h = sim::Humanoid::create();
+  const sim::QposTrajectory q = trajectory_for(h, a);
+  sim::RenderOptions ro;
+  ro.width = a.width, ro.height = a.height, ro.shadows = a.shadows;
+  const auto t0 = std::chrono::steady_clock::now();
+  const int n = sim::render_trajectory(h, q, a.out, a.frames_dir, ro);
+  const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::printf("rendered %d frames (%dx%d) in %.1f s (%.1f fps)%s%s%s%s\n", n, a.width, a.height, s, n / s,
+              a.out.empty() ? "" : " -> ", a.out.c_str(), a.frames_dir.empty() ? "" : " + PNGs in ",
+              a.frames_dir.c_str());
+}
+
+void add_one_options(CLI::App* c, OneArgs& a, const char* mode) {
+  a.mode = mode;
+  c->add_option("--bvh", a.bvh, "input BVH clip")->required();
+  c->add_option("--mode", a.mode, "replay (kinematic) or pd (simulate the PD tracker)")->capture_default_str();
+  c->add_option("--assist", a.assist, "upward assist force on the root in N (pd mode; default 0 = none)");
+  c->add_option("--max-frames", a.max_frames, "use at most N frames (0 = all)");
+}
+
+void add_sim_commands(CLI::App& app) {
+  static ClipArgs rt;
+  auto* r = app.add_subcommand("retarget", "retarget BVH clips to the humanoid and report the replay joint error");
+  add_clip_options(r, rt, "all");
+  r->callback([] { run_retarget(rt); });
+
+  static PdArgs pd;
+  auto* p = app.add_subcommand("track-pd", "PD tracking baseline on held-out clips (success, MPJPE, drift, falls)");
+  add_clip_options(p, pd.clips, "test");
+  p->add_option("--assist", pd.assist, "upward assist force on the root, N (default 0: no assist)");
+  p->add_flag("--no-ff", pd.no_ff, "disable the velocity feed-forward");
+  p->add_option("--export-dir", pd.export_dir, "write the simulated motion of every clip as BVH here");
+  p->callback([] { run_track_pd(pd); });
+
+  static OneArgs ex;
+  auto* e = app.add_subcommand("export", "simulated (pd) or replayed motion of a clip -> BVH (data layout)");
+  add_one_options(e, ex, "pd");
+  e->add_option("--out", ex.out, "output .bvh")->required();
+  e->callback([] { run_export(ex); });
+
+  static OneArgs rd;
+  auto* v = app.add_subcommand("render", "render a clip (replayed or simulated) offscreen to MP4 / PNG frames");
+  add_one_options(v, rd, "replay");
+  v->add_option("--out", rd.out, "output .mp4");
+  v->add_option("--frames-dir", rd.frames_dir, "also write PNG frames here");
+  v->add_option("--width", rd.width, "frame width (even)")->capture_default_str();
+  v->add_option("--height", rd.height, "frame height (even)")->capture_default_str();
+  v->add_flag("--shadows", rd.shadows, "render shadows (off by default)");
+  v->callback([] { run_render(rd); });
+}
+
+}  // namespace
+
+T2M_COMMAND(add_sim_commands);
