@@ -51,8 +51,12 @@ Tensor matmul_nd(Tensor a, Tensor b, const char* op, const Shape& a_orig, const 
   Shape out_shape = batch;
   out_shape.push_back(M);
   out_shape.push_back(N);
-  Tensor c = Tensor::zeros(out_shape, a.dtype());
-  if (M == 0 || N == 0 || K == 0 || shape_numel(batch) == 0) return c;
+  Tensor c = Tensor::empty(out_shape, a.dtype());
+  if (M == 0 || N == 0 || shape_numel(batch) == 0) return c;
+  if (K == 0) {  // empty inner dim: a sum of nothing
+    c.zero_();
+    return c;
+  }
 
   MatLayout la, lb;
   if (!mat_layout(a, la)) {

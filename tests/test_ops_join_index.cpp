@@ -180,3 +180,22 @@ TEST(OpsIndex, MaskedFill) {
     }
   expect_error([&] { masked_fill(Tensor::zeros({3}), Tensor::zeros({2, 3}), 1.0); }, {"masked_fill", "[2, 3]", "[3]"});
 }
+
+TEST(OpsIndex, ExpandedStrideZeroInputs) {
+  // Inputs with stride-0 dims (expand) go through every join/index op and give the materialised result.
+  Tensor row = random_tensor({1, 4}, DType::f64, 11);
+  Tensor e = row.expand({3, 4});
+  Tensor m = e.contiguous();
+  ASSERT_EQ(e.strides()[0], 0);
+  Tensor idx = Tensor::from_vector(std::vector<int64_t>{3, 0}, {2});
+  expect_values(index_select(e, 1, idx), {3, 2}, raw_values(index_select(m, 1, idx)), 0);
+  Tensor gi = Tensor::from_vector(std::vector<int64_t>{1, 0, 2, 3, 3, 1}, {3, 2});
+  expect_values(gather(e, 1, gi), {3, 2}, raw_values(gather(m, 1, gi)), 0);
+  expect_values(concat({e, m}, 0), {6, 4}, raw_values(concat({m, m}, 0)), 0);
+  Tensor mask = Tensor::from_vector(std::vector<int64_t>{1, 0, 0}, {3, 1}).expand({3, 4});
+  expect_values(masked_fill(e, mask, 5.0), {3, 4}, raw_values(masked_fill(m, mask.contiguous(), 5.0)), 0);
+  expect_values(index_add(e, 0, Tensor::from_vector(std::vector<int64_t>{2}, {1}), row), {3, 4},
+                raw_values(index_add(m, 0, Tensor::from_vector(std::vector<int64_t>{2}, {1}), row)), 0);
+  EXPECT_NEAR(raw_values(index_add(m, 0, Tensor::from_vector(std::vector<int64_t>{2}, {1}), row))[8],
+              2 * raw_get(row, {0, 0}), 1e-15);
+}
