@@ -1,5 +1,6 @@
 // autograd.h — everything of the autograd layer in one include.
 #pragma once
+#include "autograd/anomaly.h"
 #include "autograd/gradcheck.h"
 #include "autograd/no_grad.h"
 #include "autograd/node.h"

@@ -8,6 +8,9 @@
 #include <unordered_map>
 #include <unordered_set>
 
+#include <cmath>
+
+#include "autograd/anomaly.h"
 #include "autograd/variable.h"
 #include "tensor/ops.h"
 
@@ -25,6 +28,12 @@ void accumulate_into(Tensor& grad, const Tensor& g) {
     return;
   }
   add_(grad, g);
+}
+
+// True when every element is finite: sum(g * 0) is 0 unless some element is NaN or infinite.
+bool all_finite(const Tensor& g) {
+  if (g.numel() == 0) return true;
+  return std::isfinite(t2m::sum(t2m::mul(g, 0.0)).item());
 }
 
 std::vector<VariableImpl*> post_order(VariableImpl* root) {
@@ -94,7 +103,12 @@ void Variable::backward(const Tensor& seed, bool retain_graph) const {
     if (v->retains_grad) accumulate_into(v->grad, g);
     std::vector<bool> need(n->inputs.size());
     for (size_t i = 0; i < need.size(); ++i) need[i] = n->inputs[i] != nullptr;
-    std::vector<Tensor> gin = n->backward(g, need);
+    std::vector<Tensor> gin;
+    try {
+      gin = n->backward(g, need);
+    } catch (const Error& e) {
+      throw Error("backward of op '" + n->op + "': " + e.what());
+    }
     if (!retain_graph) n->release();
     if (gin.size() != n->inputs.size())
       throw Error("backward: op '" + n->op + "' returned " + std::to_string(gin.size()) + " gradients for " +
@@ -105,6 +119,12 @@ void Variable::backward(const Tensor& seed, bool retain_graph) const {
       if (gin[i].shape() != n->input_shapes[i])
         throw Error("backward: op '" + n->op + "' gave a gradient of shape " + shape_str(gin[i].shape()) +
                     " for input " + std::to_string(i) + " of shape " + shape_str(n->input_shapes[i]));
+      if (gin[i].dtype() != in->data.dtype())
+        throw Error("backward: op '" + n->op + "' gave a " + dtype_name(gin[i].dtype()) + " gradient for " +
+                    dtype_name(in->data.dtype()) + " input " + std::to_string(i));
+      if (AnomalyMode::is_enabled() && !all_finite(gin[i]))
+        throw Error("backward: op '" + n->op + "' produced a non-finite gradient for input " + std::to_string(i) +
+                    " of shape " + shape_str(n->input_shapes[i]));
       Tensor& slot = grads[in];
       slot = slot.defined() ? add(slot, gin[i]) : std::move(gin[i]);
     }

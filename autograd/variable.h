@@ -8,7 +8,10 @@
 // times are summed, leaf .grad() accumulates across backward calls until zero_grad(). Non-leaf gradients are not
 // kept unless retain_grad() was called. Without retain_graph the graph's saved tensors are freed afterwards.
 // Errors (t2m::Error): backward on a variable that does not require grad; on a non-scalar without a seed (message
-// names the shape); seed shape/dtype mismatch; a second backward through a freed graph; undefined Variable use.
+// names the shape); seed shape/dtype mismatch; a second backward through a freed graph; undefined Variable use;
+// an op's backward returning the wrong number, shape or dtype of gradients (names the op); an Error thrown inside
+// an op's backward is re-thrown prefixed with "backward of op 'NAME': "; non-finite gradients under AnomalyMode.
+// Not thread-safe for one graph or shared leaves: run concurrent backward passes on disjoint graphs only.
 #pragma once
 #include <memory>
 #include <string>

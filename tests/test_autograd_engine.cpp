@@ -247,6 +247,40 @@ TEST(AutogradEngine, ZeroSizeDims) {
   EXPECT_EQ(x.grad().shape(), (Shape{0, 3}));
 }
 
+// A custom op whose backward returns `grads` (or throws when `throw_msg` is set).
+Variable custom_op(const Variable& x, std::vector<Tensor> grads, std::string throw_msg = {}) {
+  return ag::record("custom", x.data().clone(), {x}, [grads, throw_msg](const Tensor&, const std::vector<bool>&) {
+    if (!throw_msg.empty()) throw Error(throw_msg);
+    return grads;
+  });
+}
+
+TEST(AutogradEngine, BrokenBackwardIsReportedWithTheOpName) {
+  Variable x = Variable::parameter(vec({1, 2}));
+  std::string msg = error_of([&] { ag::sum(custom_op(x, {}, "boom")).backward(); });
+  EXPECT_NE(msg.find("backward of op 'custom': boom"), std::string::npos) << msg;
+  msg = error_of([&] { ag::sum(custom_op(x, {vec({1, 2, 3})})).backward(); });
+  EXPECT_NE(msg.find("'custom'"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("[3]"), std::string::npos) << msg;
+  msg = error_of([&] { ag::sum(custom_op(x, {vec({1, 2}), vec({1, 2})})).backward(); });
+  EXPECT_NE(msg.find("returned 2 gradients for 1 inputs"), std::string::npos) << msg;
+  msg = error_of([&] { ag::sum(custom_op(x, {vec({1, 2}).to(DType::f64)})).backward(); });
+  EXPECT_NE(msg.find("f64"), std::string::npos) << msg;
+}
+
+TEST(AutogradEngine, AnomalyModeNamesTheOpWithANonFiniteGradient) {
+  Variable x = Variable::parameter(vec({0, 4}));
+  ag::sum(ag::sqrt(x)).backward();  // d sqrt(x)/dx at 0 is inf: allowed when anomaly mode is off
+  EXPECT_TRUE(std::isinf(values(x.grad())[0]));
+  EXPECT_EQ(values(x.grad())[1], 0.25);
+  ag::DetectAnomalyGuard guard;
+  std::string msg = error_of([&] { ag::sum(ag::sqrt(x) * 2.0).backward(); });
+  EXPECT_NE(msg.find("op 'sqrt' produced a non-finite gradient"), std::string::npos) << msg;
+  Variable y = Variable::parameter(vec({1, 4}));
+  ag::sum(ag::sqrt(y)).backward();  // finite: no error
+  EXPECT_EQ(values(y.grad())[1], 0.25);
+}
+
 TEST(AutogradEngine, BadInputThrowsT2mError) {
   Variable a = Variable::parameter(Tensor::ones({2, 3})), b = Variable::parameter(Tensor::ones({4}));
   error_of([&] { ag::add(a, b); });
