@@ -210,6 +210,10 @@ void macro_kernel(const MicroKernel<T>& uk, int64_t mc, int64_t nc, int64_t kc, 
       const T* a = ap + (ir / mr) * kc * mr;
       T* cc = c + ir * ldc + jr;
       if (m == mr && n == nr) {
+        for (int i = 0; i < mr; ++i) {  // the kernel touches C only at its end: start pulling the tile in
+          __builtin_prefetch(cc + i * ldc, 1);
+          __builtin_prefetch(cc + i * ldc + nr - 1, 1);
+        }
         uk.kernel(kc, a, b, cc, ldc, alpha, beta);
         continue;
       }

@@ -105,9 +105,9 @@ void pack_b_f64(bool trans, int64_t kc, int64_t nc, const double* b, int64_t ldb
 
 }  // namespace
 
-// B micro-panel kc×nr = 256×16×4 B = 16 KB (L1); A block 384×256×4 B = 384 KB (L2); B block 4 MB (L3).
+// B micro-panel kc×nr = 512×16×4 B = 32 KB (L1); A block 192×512×4 B = 384 KB (L2); B block 8 MB (L3).
 const MicroKernel<float>& avx2_kernel_f32() {
-  static const MicroKernel<float> k{"avx2", kMrF, kNrF, 384, 256, 4096, &kernel_f32<kMrF, kNvF>, &pack_a_f32,
+  static const MicroKernel<float> k{"avx2", kMrF, kNrF, 192, 512, 4096, &kernel_f32<kMrF, kNvF>, &pack_a_f32,
                                     &pack_b_f32};
   return k;
 }

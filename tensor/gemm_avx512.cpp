@@ -108,10 +108,11 @@ void pack_b_f64(bool trans, int64_t kc, int64_t nc, const double* b, int64_t ldb
 
 }  // namespace
 
-// Blocking for Zen5 (48 KB L1d, 1 MB L2/core): B micro-panel kc×nr = 256×32×4 B = 32 KB (L1);
-// A block mc×kc = 384×256×4 B = 384 KB (L2); B block kc×nc = 256×4096×4 B = 4 MB (L3).
+// Blocking for Zen5 (48 KB L1d, 1 MB L2/core): A block mc×kc = 192×512×4 B = 384 KB (L2); B block kc×nc =
+// 512×4096×4 B = 8 MB (L3). The B micro-panel (512×32×4 B = 64 KB) streams from L2 (176 B per 12 cycles); a long
+// kc halves the passes over C against kc = 256 (measured ~4% faster on 1024³ and 4096×2048×512).
 const MicroKernel<float>& avx512_kernel_f32() {
-  static const MicroKernel<float> k{"avx512", kMrF, kNrF, 384, 256, 4096, &kernel_f32<kMrF, kNvF>,
+  static const MicroKernel<float> k{"avx512", kMrF, kNrF, 192, 512, 4096, &kernel_f32<kMrF, kNvF>,
                                     &pack_a_f32, &pack_b_f32};
   return k;
 }

@@ -125,7 +125,8 @@ void odd_shapes_all_transposes() {
 TEST(Gemm, FloatOddShapesAllTransposes) { odd_shapes_all_transposes<float>(); }
 TEST(Gemm, DoubleOddShapesAllTransposes) { odd_shapes_all_transposes<double>(); }
 
-// Larger shapes that cross the register tile, the cache blocks (mc 384, kc 256) and mixed tiny/large dims.
+// Larger shapes that cross the register tile, the cache blocks (avx512: mc 192, kc 512, nc 4096) and mixed
+// tiny/large dims.
 template <typename T>
 void larger_shapes() {
   struct Shape3 { int64_t M, N, K; };
@@ -152,7 +153,7 @@ void alpha_beta_and_strides() {
           check_gemm<T>(t & 1, t & 2, 37, 45, 29, alpha, beta, pad, seed++);   // packed path
           check_gemm<T>(t & 1, t & 2, 2, 45, 29, alpha, beta, pad, seed++);    // small path (M tiny)
           check_gemm<T>(t & 1, t & 2, 45, 37, 0, alpha, beta, pad, seed++);    // K == 0: C = beta C
-          check_gemm<T>(t & 1, t & 2, 130, 70, 300, alpha, beta, pad, seed++); // two kc blocks, edge tiles
+          check_gemm<T>(t & 1, t & 2, 200, 40, 530, alpha, beta, pad, seed++); // two mc and kc blocks, edges
         }
   });
 }
@@ -235,7 +236,7 @@ TEST(Gemm, ThreadCountsGiveIdenticalResults) {
   const int saved = t2m::get_num_threads();
   struct Shape3 { int64_t M, N, K; };
   for_each_kernel([] {
-    for (const Shape3 s : {Shape3{300, 200, 260}, Shape3{40, 900, 70}, Shape3{513, 33, 64}}) {
+    for (const Shape3 s : {Shape3{300, 200, 600}, Shape3{40, 900, 70}, Shape3{513, 33, 64}}) {
       for (int t = 0; t < 4; ++t) {
         const bool ta = t & 1, tb = t & 2;
         std::mt19937 rng(11);
