@@ -186,3 +186,26 @@ TEST(TensorCore, BadArguments) {
   EXPECT_EQ(shape_str(contiguous_strides({2, 0, 3})), "[3, 3, 1]");
   EXPECT_EQ(shape_numel({}), 1);
 }
+
+TEST(TensorCore, LargeTransposedCopiesTiled) {
+  // Transposed layouts big enough for the tiled copy path (odd sizes: partial tiles), batched, converting,
+  // and above the parallel grain.
+  for (const Shape& s : std::vector<Shape>{{3, 70, 45}, {2, 300, 129}, {17, 16}}) {
+    Tensor a = random_tensor(s, DType::f64, 31);
+    Tensor t = a.transpose(-1, -2);
+    const auto want = raw_values(t);
+    Shape ts = t.shape();
+    expect_values(t.contiguous(), ts, want, 0);
+    expect_values(t.to(DType::f32), ts, want, 1e-7);
+    Tensor dst = Tensor::zeros(ts, DType::f64);
+    dst.copy_(t);
+    expect_values(dst, ts, want, 0);
+  }
+  // Broadcast batch dim (stride 0) on a transposed source.
+  Tensor m = random_tensor({40, 33}, DType::f32, 32);
+  Tensor e = m.transpose(0, 1).unsqueeze(0).expand({3, 33, 40});
+  Tensor c = e.contiguous();
+  for_each_index({3, 33, 40}, [&](const std::vector<int64_t>& i) {
+    ASSERT_EQ(raw_get(c, i), raw_get(m, {i[2], i[1]}));
+  });
+}
