@@ -173,3 +173,18 @@ TEST(Splits, RealClipListProportions) {
       EXPECT_EQ(s2.at(n), s.at(n)) << n;
     }
 }
+
+TEST(Splits, RealAssignmentMatchesTheCommittedFile) {
+  // tests/fixtures/data/bandai_splits.json is the assignment of the 2,785 clip names, committed when the rule was
+  // fixed: any change of the rule or of the JSON layout shows up here (stable across runs and machines).
+  auto names = real_clip_names();
+  if (names.empty()) GTEST_SKIP() << "tests/fixtures/data/bandai_clips.txt missing";
+  std::ifstream f(std::string(T2M_SOURCE_DIR) + "/tests/fixtures/data/bandai_splits.json");
+  ASSERT_TRUE(f.good());
+  std::string committed((std::istreambuf_iterator<char>(f)), {});
+  EXPECT_EQ(splits_to_json(assign_splits(names)), committed);
+  auto loaded = splits_from_json(committed);
+  EXPECT_EQ(clips_in(loaded, Split::train).size(), 2243u);
+  EXPECT_EQ(clips_in(loaded, Split::val).size(), 268u);
+  EXPECT_EQ(clips_in(loaded, Split::test).size(), 274u);
+}

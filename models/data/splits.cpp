@@ -104,8 +104,9 @@ std::map<std::string, Split> assign_splits(const std::vector<std::string>& names
 std::string splits_to_json(const std::map<std::string, Split>& splits) {
   nlohmann::ordered_json j;
   j["format"] = "t2m-splits-1";
-  j["rule"] = "groups by dataset_content_style; >=10 takes: hash(name) u<0.8 train, <0.9 val, else test; "
-              "fewer: rank by hash, 1 -> train, 2 -> top test, 3..9 -> top test, second val, rest train";
+  j["rule"] = "groups by dataset_content_style; key u = frac(hash(group) + take * 0.618034) (hash(name) if the take "
+              "is not a number); >=10 takes: u < 0.8 train, < 0.9 val, else test; fewer: rank by u, 1 -> train, "
+              "2 -> top test, 3..9 -> top test, second val, rest train";
   int c[3] = {0, 0, 0};
   for (const auto& kv : splits) c[(int)kv.second]++;
   j["counts"] = {{"train", c[0]}, {"val", c[1]}, {"test", c[2]}};
