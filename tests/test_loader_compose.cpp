@@ -9,6 +9,8 @@
 #include "models/data/compose_samples.h"
 #include "models/data/features.h"
 #include "models/data/features_math.h"
+#include "models/data/features_mirror.h"
+#include "sim/bvh.h"
 #include "test_features_synthetic.h"
 
 using namespace t2m::data;
@@ -138,4 +140,25 @@ TEST(Compose, BadInputThrows) {
   MotionClip broken;
   broken.frames = 3;
   EXPECT_THROW(clip_to_motion(broken), t2m::Error);
+}
+
+TEST(Compose, RealWalkThenMirroredWalkIsContinuous) {
+  // The committed 60-frame Bandai walk, followed by its mirror image turned by 1 rad and moved 5 m away.
+  auto a = t2m::sim::motion_from_bvh(
+      t2m::sim::read_bvh(std::string(T2M_SOURCE_DIR) + "/tests/fixtures/bvh/bandai_walk_60.bvh"));
+  auto b = mirror_motion(a);
+  transform_motion(b, 1.0, 5.0, 3.0);
+  auto c = compose_motions(a, b, kDefaultBlendFrames);
+  ASSERT_EQ(c.frames, 120 - kDefaultBlendFrames);
+  const double root_ab = std::max(max_step(a, 0, a.frames, true), max_step(b, 0, b.frames, true));
+  const double joint_ab = std::max(max_step(a, 0, a.frames), max_step(b, 0, b.frames));
+  EXPECT_LT(max_step(c, 0, c.frames, true), 1.1 * root_ab);
+  EXPECT_LT(max_step(c, 0, c.frames), joint_ab + 0.03);
+  // The features of the composition invert back to it (canonical frame) under 1 mm.
+  auto f = motion_to_features(c);
+  auto p = features_to_positions(f);
+  auto want = canonicalize_motion(c).pos;
+  double err = 0;
+  for (size_t i = 0; i < p.size(); ++i) err = std::max(err, (double)std::fabs(p[i] - want[i]));
+  EXPECT_LT(err, 1e-3);
 }
