@@ -154,6 +154,8 @@ Tensor lt(const Variable& a, const Variable& b) { return t2m::lt(a.data(), b.dat
 Tensor ge(const Variable& a, const Variable& b) { return t2m::ge(a.data(), b.data()); }
 Tensor le(const Variable& a, const Variable& b) { return t2m::le(a.data(), b.data()); }
 Tensor eq(const Variable& a, const Variable& b) { return t2m::eq(a.data(), b.data()); }
+Tensor gt(const Variable& a, double s) { return t2m::gt(a.data(), s); }
+Tensor lt(const Variable& a, double s) { return t2m::lt(a.data(), s); }
 
 Variable operator+(const Variable& a, const Variable& b) { return add(a, b); }
 Variable operator-(const Variable& a, const Variable& b) { return sub(a, b); }

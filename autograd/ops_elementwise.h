@@ -39,6 +39,8 @@ Tensor lt(const Variable& a, const Variable& b);
 Tensor ge(const Variable& a, const Variable& b);
 Tensor le(const Variable& a, const Variable& b);
 Tensor eq(const Variable& a, const Variable& b);
+Tensor gt(const Variable& a, double s);
+Tensor lt(const Variable& a, double s);
 
 Variable operator+(const Variable& a, const Variable& b);
 Variable operator-(const Variable& a, const Variable& b);

@@ -22,4 +22,21 @@ Variable gather(const Variable& a, int64_t dim, const Tensor& index) {
   });
 }
 
+// a: A, index/src: I, out: A. da = g, dsrc = gather(g, dim, index)
+Variable scatter_add(const Variable& a, int64_t dim, const Tensor& index, const Variable& src) {
+  return record("scatter_add", t2m::scatter_add(a.data(), dim, index, src.data()), {a, src},
+                [dim, index](const Tensor& g, const std::vector<bool>& need) {
+                  return std::vector<Tensor>{need[0] ? g : Tensor(), need[1] ? t2m::gather(g, dim, index) : Tensor()};
+                });
+}
+
+// a: A, index: [L], src: A with A[dim] -> L, out: A. da = g, dsrc = index_select(g, dim, index)
+Variable index_add(const Variable& a, int64_t dim, const Tensor& index, const Variable& src) {
+  return record("index_add", t2m::index_add(a.data(), dim, index, src.data()), {a, src},
+                [dim, index](const Tensor& g, const std::vector<bool>& need) {
+                  return std::vector<Tensor>{need[0] ? g : Tensor(),
+                                             need[1] ? t2m::index_select(g, dim, index) : Tensor()};
+                });
+}
+
 }  // namespace t2m::ag

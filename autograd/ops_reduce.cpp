@@ -43,6 +43,13 @@ Variable mean(const Variable& a, const std::vector<int64_t>& dims, bool keepdim)
   });
 }
 
+// a: A (broadcastable from S), out: S. da = expand(g, A)
+Variable sum_to(const Variable& a, const Shape& shape) {
+  Shape A = a.shape();
+  return record("sum_to", t2m::sum_to(a.data(), shape), {a},
+                [A](const Tensor& g, const Need&) { return Grads{g.expand(A)}; });
+}
+
 namespace {
 
 // Shared by amax/amin: mask = (a == out) over A; da = g * mask / count(mask) (ties split evenly).

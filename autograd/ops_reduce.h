@@ -18,6 +18,9 @@ Variable amax(const Variable& a, const std::vector<int64_t>& dims = {}, bool kee
 Variable amin(const Variable& a, const std::vector<int64_t>& dims = {}, bool keepdim = false);
 Variable logsumexp(const Variable& a, int64_t dim, bool keepdim = false);
 
+// Sums a (broadcast) tensor back to `shape` (the reverse of broadcasting); da = expand(g, A).
+Variable sum_to(const Variable& a, const Shape& shape);
+
 // max along one dim: differentiable values and the int64 argmax indices (first maximum wins).
 struct MaxResult {
   Variable values;

@@ -110,4 +110,10 @@ Variable clamp(const Variable& a, double lo, double hi) {
   });
 }
 
+// da = 0 (sign is piecewise constant)
+Variable sign(const Variable& a) {
+  return record("sign", t2m::sign(a.data()), {a},
+                [](const Tensor& g, const Need&) { return Grads{Tensor::zeros(g.shape(), g.dtype())}; });
+}
+
 }  // namespace t2m::ag

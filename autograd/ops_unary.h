@@ -22,5 +22,7 @@ Variable cos(const Variable& a);
 Variable square(const Variable& a);
 Variable reciprocal(const Variable& a);
 Variable clamp(const Variable& a, double lo, double hi);
+// sign(a) in {-1, 0, 1}: piecewise constant, so its gradient is zero everywhere (as in PyTorch).
+Variable sign(const Variable& a);
 
 }  // namespace t2m::ag

@@ -150,6 +150,8 @@ std::vector<Row> rows() {
       {"amin_dim", {A({3, 4}, 's')}, AG(ag::amin(v[0], {0})), REF(amin(t[0], {0}))},
       {"logsumexp", {A({3, 4})}, AG(ag::logsumexp(v[0], 1)), REF(logsumexp(t[0], 1))},
       {"logsumexp_keep", {A({2, 3, 4})}, AG(ag::logsumexp(v[0], 0, true)), REF(logsumexp(t[0], 0, true))},
+      {"sum_to", {A({2, 3, 4})}, AG(ag::sum_to(v[0], {3, 1})), REF(sum_to(t[0], {3, 1}))},
+      {"sign_times", {A({3, 4}), A({3, 4})}, AG(ag::sign(v[0]) * v[1]), REF(mul(sign(t[0]), t[1]))},
       {"max_values", {A({3, 5})}, AG(ag::max(v[0], 1).values), REF(max(t[0], 1).values)},
       {"softmax", {A({3, 4})}, AG(ag::softmax(v[0], 1)), REF(exp(sub(t[0], logsumexp(t[0], 1, true))))},
       {"softmax_dim0_t", {A({3, 4}, 't')}, AG(ag::softmax(v[0], 0)), REF(exp(sub(t[0], logsumexp(t[0], 0, true))))},
@@ -203,6 +205,10 @@ std::vector<Row> rows() {
        REF(gather(t[0], 1, idx({0, 3, 3, 1, 2, 2}, {3, 2})))},
       {"gather0", {A({3, 2})}, AG(ag::gather(v[0], 0, idx({2, 0, 1, 1}, {2, 2}))),
        REF(gather(t[0], 0, idx({2, 0, 1, 1}, {2, 2})))},
+      {"scatter_add", {A({3, 4}), A({3, 2})}, AG(ag::scatter_add(v[0], 1, idx({0, 3, 3, 3, 2, 0}, {3, 2}), v[1])),
+       REF(scatter_add(t[0], 1, idx({0, 3, 3, 3, 2, 0}, {3, 2}), t[1]))},
+      {"index_add", {A({4, 3}, 't'), A({3, 3})}, AG(ag::index_add(v[0], 0, idx({3, 0, 3}, {3}), v[1])),
+       REF(index_add(t[0], 0, idx({3, 0, 3}, {3}), t[1]))},
       // ---- compositions ----
       {"shared_subexpr", {A({3, 4})}, AG(v[0] * v[0] + ag::exp(v[0]) * v[0]),
        REF(add(mul(t[0], t[0]), mul(exp(t[0]), t[0])))},
@@ -269,7 +275,7 @@ TEST(AutogradOpTable, NamesAreUniqueAndCoverAllFamilies) {
                            "mean_all", "amax_all", "amin_dim", "logsumexp", "matmul_2d", "matmul_t_a", "reshape",
                            "transpose", "permute", "slice_step", "select", "narrow", "expand", "squeeze",
                            "unsqueeze", "flatten", "contiguous", "concat0", "stack", "split", "chunk",
-                           "index_select0", "gather1", "softmax", "log_softmax"})
+                           "index_select0", "gather1", "softmax", "log_softmax", "scatter_add", "index_add", "sum_to"})
     EXPECT_TRUE(names.count(must)) << "missing row " << must;
 }
 
