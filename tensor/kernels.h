@@ -53,10 +53,20 @@ inline void check_index(const Tensor& index, const char* op) {
                 shape_str(index.shape()));
 }
 
+// A large operand whose last dim is strided while another dim has unit stride (a transposed view) is read
+// faster through the tiled transposing copy (ops_copy.cpp) than element by element: returns that copy, or t.
+inline Tensor untranspose_large(const Tensor& t) {
+  if (t.dim() < 2 || t.numel() < 4096 || t.strides().back() <= 1 || t.shape().back() == 1) return t;
+  for (int64_t d = 0; d + 1 < t.dim(); ++d)
+    if (t.strides()[d] == 1 && t.shape()[d] > 1) return t.contiguous();
+  return t;
+}
+
 // out = f(a) elementwise (out contiguous, a any strides); f is a generic functor T -> T; a must be f32/f64.
 template <typename F>
-Tensor map_unary(const Tensor& a, const char* op, F f) {
-  check_defined(a, op);
+Tensor map_unary(const Tensor& a_in, const char* op, F f) {
+  check_defined(a_in, op);
+  const Tensor a = untranspose_large(a_in);
   Tensor out = Tensor::empty(a.shape(), a.dtype());
   const std::array<Shape, 2> st{out.strides(), a.strides()};
   dispatch_float(a.dtype(), op, [&](auto z) {

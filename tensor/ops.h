@@ -5,6 +5,8 @@
 // else Error); index tensors are int64. Size-0 dimensions are allowed and give empty results (sum of an empty
 // axis is 0, max of an empty axis throws). Large ops run across OpenMP threads; results do not depend on the
 // thread count except for the summation order of reductions, which is fixed for a given thread count.
+// (As implemented: sums/means accumulate in double over fixed-size blocks combined in order, so reductions are
+// independent of the thread count as well; see tensor/reduce_iter.h.)
 // Shape errors throw t2m::Error naming the op and the shapes, e.g. "add: cannot broadcast [2, 3] with [4]".
 #pragma once
 #include <vector>

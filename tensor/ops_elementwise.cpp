@@ -20,8 +20,9 @@ using Off = std::array<int64_t, 3>;
 
 // out = f(a, b) with broadcasting; f is a generic functor (T, T) -> T.
 template <typename F>
-Tensor binary_op(const Tensor& a, const Tensor& b, const char* op, F f) {
-  check_float_pair(a, b, op);
+Tensor binary_op(const Tensor& a_in, const Tensor& b_in, const char* op, F f) {
+  check_float_pair(a_in, b_in, op);
+  const Tensor a = detail::untranspose_large(a_in), b = detail::untranspose_large(b_in);
   const Shape shape = broadcast_shapes(a.shape(), b.shape(), op);
   Tensor out = Tensor::empty(shape, a.dtype());
   const std::array<Shape, 3> st{out.strides(), broadcast_strides(a, shape, op), broadcast_strides(b, shape, op)};
