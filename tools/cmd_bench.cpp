@@ -57,7 +57,7 @@ void run_bench(const BenchOptions& o) {
               o.warmup, kPeakGflopsPerCore);
   std::printf("%-22s %7s %10s %9s %7s %9s %-7s", "shape (MxNxK:op)", "threads", "ms", "GFLOP/s", "%peak", "best GF",
               "kernel");
-  if (o.eigen) std::printf(" %10s %9s %6s", "eigen ms", "eigen GF", "ratio");
+  if (o.eigen) std::printf(" %10s %9s %10s %6s", "eigen ms", "eigen GF", "eigen best", "ratio");
   std::printf("\n");
   for (const auto& s : shapes) {
     GemmOperands ops(s);
@@ -67,7 +67,8 @@ void run_bench(const BenchOptions& o) {
                   s.flops() / (r.best_ms * 1e6), t2m::gemm_kernel_name());
       if (o.eigen) {
         const GemmTiming e = time_eigen(ops, t, o.reps, o.warmup);
-        std::printf(" %10.3f %9.1f %5.2fx", e.median_ms, e.gflops, r.gflops / e.gflops);  // ratio of medians
+        std::printf(" %10.3f %9.1f %10.1f %5.2fx", e.median_ms, e.gflops, s.flops() / (e.best_ms * 1e6),
+                    r.gflops / e.gflops);  // ratio of medians
       }
       std::printf("\n");
       std::fflush(stdout);
