@@ -22,7 +22,7 @@ bool copy_transposed_tiles(D* pd, const S* ps, const StridedPlan<2>& p) {
   constexpr int64_t kTile = 32;
   const int64_t outer = p.numel / (R * C), row_tiles = (R + kTile - 1) / kTile;
   const int nt = threads_for(p.numel);
-#pragma omp parallel for num_threads(nt) schedule(static)
+#pragma omp parallel for if (nt > 1) num_threads(nt) schedule(static)
   for (int64_t it = 0; it < outer * row_tiles; ++it) {
     int64_t o = it / row_tiles, od = 0, os = 0;
     for (int64_t d = nd - 3; d >= 0; --d) {

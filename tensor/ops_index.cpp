@@ -54,7 +54,7 @@ Tensor index_select(const Tensor& a, int64_t dim, const Tensor& index) {
   char* dst = static_cast<char*>(out.storage()->data);
   const int64_t* ip = idx.data<int64_t>();
   const int nt = detail::threads_for(outer * ni * inner);
-#pragma omp parallel for num_threads(nt) schedule(static)
+#pragma omp parallel for if (nt > 1) num_threads(nt) schedule(static)
   for (int64_t oi = 0; oi < outer * ni; ++oi) {
     const int64_t o = oi / ni, i = oi % ni;
     std::memcpy(dst + (size_t)oi * row, src + ((size_t)(o * n + ip[i])) * row, row);
@@ -146,7 +146,7 @@ Tensor index_add(const Tensor& a, int64_t dim, const Tensor& index, const Tensor
     const int64_t* ip = idx.data<int64_t>();
     // Each outer slice is independent: threads split outer; inside, indices apply in order.
     const int nt = outer > 1 ? detail::threads_for(outer * ni * inner) : 1;
-#pragma omp parallel for num_threads(nt) schedule(static)
+#pragma omp parallel for if (nt > 1) num_threads(nt) schedule(static)
     for (int64_t o = 0; o < outer; ++o)
       for (int64_t i = 0; i < ni; ++i) {
         T* dst = po + (o * n + ip[i]) * inner;

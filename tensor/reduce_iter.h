@@ -71,7 +71,7 @@ std::vector<typename Op::Acc> reduce_accumulate(const T* in, const ReduceGeom& g
 
   if (g.column_pass) {
     const int nt = (int)std::max<int64_t>(1, std::min<int64_t>(threads_for(total), g.n_out / 16));
-#pragma omp parallel num_threads(nt)
+#pragma omp parallel if (nt > 1) num_threads(nt)
     {
       const int64_t t = omp_get_thread_num(), T_ = omp_get_num_threads();
       const int64_t o0 = g.n_out * t / T_, o1 = g.n_out * (t + 1) / T_;
@@ -115,13 +115,13 @@ std::vector<typename Op::Acc> reduce_accumulate(const T* in, const ReduceGeom& g
     return acc;
   };
   if (nblocks == 1) {
-#pragma omp parallel for num_threads(nt) schedule(static)
+#pragma omp parallel for if (nt > 1) num_threads(nt) schedule(static)
     for (int64_t o = 0; o < g.n_out; ++o) out[o] = block(out_offset(o), 0);
     return out;
   }
   std::vector<Acc> partial(g.n_out * nblocks);
   const int64_t items = g.n_out * nblocks;
-#pragma omp parallel for num_threads(nt) schedule(static)
+#pragma omp parallel for if (nt > 1) num_threads(nt) schedule(static)
   for (int64_t it = 0; it < items; ++it) partial[it] = block(out_offset(it / nblocks), it % nblocks);
   for (int64_t o = 0; o < g.n_out; ++o) {
     Acc acc = partial[o * nblocks];

@@ -53,7 +53,7 @@ template <typename T, typename Make>
 void fill_blocks(T* dst, int64_t n, uint64_t seed, uint64_t base, int64_t per, Make make) {
   const int64_t nc = (n + per - 1) / per;
   const int nt = detail::threads_for(n);
-#pragma omp parallel for num_threads(nt) schedule(static)
+#pragma omp parallel for if (nt > 1) num_threads(nt) schedule(static)
   for (int64_t c = 0; c < nc; ++c) {
     uint32_t w[4] = {0, 0, 0, 0};
     block_for(seed, base + (uint64_t)c, w);

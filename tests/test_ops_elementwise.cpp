@@ -106,12 +106,16 @@ TEST(OpsElementwise, LargeParallelMatchesSerial) {
   Tensor b = random_tensor({257}, DType::f32, 6);
   Tensor at = a.transpose(0, 1).contiguous().transpose(0, 1);
   set_num_threads(1);
-  const auto r1 = raw_values(sub(at, b)), e1 = raw_values(exp(a));
+  const auto r1 = raw_values(sub(at, b)), e1 = raw_values(exp(a)), t1 = raw_values(t2m::tanh(at));
   set_num_threads(2);
-  const auto r2 = raw_values(sub(at, b)), e2 = raw_values(exp(a));
+  const auto r2 = raw_values(sub(at, b)), e2 = raw_values(exp(a)), t2 = raw_values(t2m::tanh(at));
   set_num_threads(saved);
   EXPECT_EQ(r1, r2);
   EXPECT_EQ(e1, e2);
+  EXPECT_EQ(t1, t2);
+  std::vector<double> tw;  // the transposed-layout operand (tiled copy path) gives the right values
+  for (double v : raw_values(a)) tw.push_back(std::tanh(v));
+  expect_values(t2m::tanh(at), {300, 257}, tw, 2e-6);
   expect_values(sub(at, b), {300, 257}, ref_binary(a, b, {300, 257}, [](double x, double y) { return x - y; }),
                 2e-6);
 }
