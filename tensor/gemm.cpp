@@ -142,13 +142,15 @@ bool is_small(const GemmArgs<T>& g) {
 }
 
 // Rows [i0, i1) of C. op(B) row-major (no trans): C[i,:] accumulates a[i,k] * B[k,:] (vectorised along N).
-// op(B) = B^T: C[i,j] = dot(op(A)[i,:], B[j,:]) with 8 partial sums (vectorised along K).
+// op(B) = B^T, or a contiguous K×1 column: C[i,j] = dot(op(A)[i,:], column j of op(B)) with 8 partial sums
+// (vectorised along K).
 template <typename T>
 void gemm_small_rows(const GemmArgs<T>& g, int64_t i0, int64_t i1) {
   T* tmp = tls_small.get<T>(g.N + g.K);
+  const bool dot_form = g.tb || (g.N == 1 && g.ldb == 1);
   for (int64_t i = i0; i < i1; ++i) {
     T* c = g.C + i * g.ldc;
-    if (!g.tb) {
+    if (!dot_form) {
       std::fill(tmp, tmp + g.N, T(0));
       for (int64_t k = 0; k < g.K; ++k) {
         const T a = *g.a_at(i, k);
@@ -163,7 +165,7 @@ void gemm_small_rows(const GemmArgs<T>& g, int64_t i0, int64_t i1) {
         a = arow;
       }
       for (int64_t j = 0; j < g.N; ++j) {
-        const T* b = g.B + j * g.ldb;
+        const T* b = g.tb ? g.B + j * g.ldb : g.B;
         T s[8] = {};
         int64_t k = 0;
         for (; k + 8 <= g.K; k += 8)
