@@ -24,6 +24,18 @@ void BM_AddContiguous(benchmark::State& st) {
 }
 BENCHMARK(BM_AddContiguous)->Arg(1 << 14)->Arg(1 << 20)->Arg(1 << 23);
 
+void BM_AddTiny(benchmark::State& st) {  // per-op overhead: shape checks, allocation from the cache, dispatch
+  Tensor a = filled({64}, 1), b = filled({64}, 2);
+  for (auto _ : st) benchmark::DoNotOptimize(add(a, b));
+}
+BENCHMARK(BM_AddTiny);
+
+void BM_SumTiny(benchmark::State& st) {
+  Tensor a = filled({8, 64}, 1);
+  for (auto _ : st) benchmark::DoNotOptimize(sum(a, {1}));
+}
+BENCHMARK(BM_SumTiny);
+
 void BM_AddBroadcastRow(benchmark::State& st) {  // [rows, 512] + [512] (bias add)
   const int64_t rows = st.range(0);
   Tensor a = filled({rows, 512}, 1), b = filled({512}, 2);
