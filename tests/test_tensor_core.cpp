@@ -209,3 +209,35 @@ TEST(TensorCore, LargeTransposedCopiesTiled) {
     ASSERT_EQ(raw_get(c, i), raw_get(m, {i[2], i[1]}));
   });
 }
+
+TEST(TensorCore, ViewStridesPropertyOverLayouts) {
+  // For many layouts (permutes, slices, size-1 dims) and target shapes: whenever view succeeds it must share
+  // storage and show the row-major values; reshape must always give them.
+  Tensor base = random_tensor({4, 1, 6, 2}, DType::f64, 33);
+  std::vector<Tensor> srcs;
+  for (const auto& perm : std::vector<std::vector<int64_t>>{{0, 1, 2, 3}, {2, 1, 0, 3}, {0, 2, 1, 3}, {3, 2, 1, 0}})
+    srcs.push_back(base.permute(perm));
+  srcs.push_back(base.slice(2, 0, 6, 2));
+  srcs.push_back(base.slice(0, 1, 3));
+  srcs.push_back(base.slice(3, 0, 1));
+  int views = 0;
+  for (const Tensor& s : srcs) {
+    const auto want = raw_values(s);
+    const int64_t n = s.numel();
+    for (const Shape& target : std::vector<Shape>{{n}, {1, n}, {n, 1}, {2, -1}, {-1, 2}, {2, 1, -1, 1},
+                                                  {s.size(0), -1}, {-1, s.size(-1)}, {s.size(0), s.size(1), -1}}) {
+      if (n % 2 && (target == Shape{2, -1} || target == Shape{-1, 2} || target == Shape{2, 1, -1, 1})) continue;
+      Tensor r = s.reshape(target);
+      expect_values(r, r.shape(), want, 0, shape_str(s.shape()) + " -> " + shape_str(target));
+      try {
+        Tensor v = s.view(target);
+        ++views;
+        EXPECT_TRUE(v.shares_storage(s));
+        expect_values(v, v.shape(), want, 0, "view " + shape_str(s.shape()) + " -> " + shape_str(target));
+      } catch (const Error&) {
+        EXPECT_FALSE(s.is_contiguous()) << "a contiguous tensor can always be viewed";
+      }
+    }
+  }
+  EXPECT_GT(views, 20);
+}
