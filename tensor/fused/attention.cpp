@@ -1,0 +1,122 @@
+// attention.cpp — S = scale Q K^T (gemm_batched) into att, masked max-subtracted softmax in place, out = P V.
+// Backward: dV = P^T dO; dP = dO V^T; dS = P * (dP - rowsum(P * dP)) * scale; dQ = dS K; dK = dS^T Q.
+#include "tensor/fused/attention.h"
+
+#include <cmath>
+#include <string>
+
+#include "tensor/fused/fast_exp.h"
+#include "tensor/fused/kernel_util.h"
+#include "tensor/fused/scratch.h"
+#include "tensor/gemm.h"
+
+namespace t2m::fused {
+
+namespace {
+
+void check_shape(const char* op, const AttentionShape& s) {
+  check_dim(op, "B", s.B, 0);
+  check_dim(op, "H", s.H, 1);
+  check_dim(op, "Tq", s.Tq, 1);
+  check_dim(op, "Tk", s.Tk, 1);
+  check_dim(op, "d", s.d, 1);
+  if (s.causal && s.Tq != s.Tk)
+    throw Error(std::string(op) + ": causal attention needs Tq == Tk, got Tq=" + std::to_string(s.Tq) +
+                " Tk=" + std::to_string(s.Tk));
+}
+
+}  // namespace
+
+double attention_forward_flops(const AttentionShape& s) {
+  return 4.0 * (double)s.B * (double)s.H * (double)s.Tq * (double)s.Tk * (double)s.d;
+}
+
+template <typename T>
+void attention_forward(T* out, T* att, const T* q, const T* k, const T* v, const T* key_mask,
+                       const AttentionShape& s) {
+  const char* op = "attention_forward";
+  check_shape(op, s);
+  if (s.B == 0) return;
+  check_ptr(op, "out", out);
+  check_ptr(op, "att", att);
+  check_ptr(op, "q", q);
+  check_ptr(op, "k", k);
+  check_ptr(op, "v", v);
+  const int64_t BH = s.B * s.H, Tq = s.Tq, Tk = s.Tk, d = s.d;
+  const T scale = (T)(1.0 / std::sqrt((double)d));
+  gemm_batched(false, true, BH, Tq, Tk, d, scale, q, d, Tq * d, k, d, Tk * d, (T)0, att, Tk, Tq * Tk);
+  const int nt = fused_threads(BH * Tq * Tk);
+#pragma omp parallel for num_threads(nt) schedule(static) if (nt > 1)
+  for (int64_t r = 0; r < BH * Tq; ++r) {
+    const int64_t b = r / (s.H * Tq), i = r % Tq;
+    T* p = att + r * Tk;
+    const T* m = key_mask ? key_mask + b * Tk : nullptr;
+    const int64_t jend = s.causal ? i + 1 : Tk;  // keys [jend, Tk) are hidden by the causal mask
+    T mx = 0;
+    bool any = false;
+    for (int64_t j = 0; j < jend; ++j) {
+      if (m && m[j] == (T)0) continue;
+      if (!any || p[j] > mx) mx = p[j];
+      any = true;
+    }
+    if (!any) {
+      for (int64_t j = 0; j < Tk; ++j) p[j] = 0;
+      continue;
+    }
+    T sum = 0;
+    for (int64_t j = 0; j < jend; ++j) {
+      const T e = (m && m[j] == (T)0) ? (T)0 : fexp(p[j] - mx);
+      p[j] = e;
+      sum += e;
+    }
+    for (int64_t j = jend; j < Tk; ++j) p[j] = 0;
+    const T inv = (T)1 / sum;
+    for (int64_t j = 0; j < jend; ++j) p[j] *= inv;
+  }
+  gemm_batched(false, false, BH, Tq, d, Tk, (T)1, att, Tk, Tq * Tk, v, d, Tk * d, (T)0, out, d, Tq * d);
+}
+
+template <typename T>
+void attention_backward(T* dq, T* dk, T* dv, const T* dout, const T* att, const T* q, const T* k, const T* v,
+                        const AttentionShape& s) {
+  const char* op = "attention_backward";
+  check_shape(op, s);
+  if (s.B == 0) return;
+  check_ptr(op, "dout", dout);
+  check_ptr(op, "att", att);
+  const int64_t BH = s.B * s.H, Tq = s.Tq, Tk = s.Tk, d = s.d;
+  const T scale = (T)(1.0 / std::sqrt((double)d));
+  if (dv) gemm_batched(true, false, BH, Tk, d, Tq, (T)1, att, Tk, Tq * Tk, dout, d, Tq * d, (T)0, dv, d, Tk * d);
+  if (!dq && !dk) return;
+  check_ptr(op, "v", v);
+  T* ds = fused_scratch<T>(2, BH * Tq * Tk);
+  gemm_batched(false, true, BH, Tq, Tk, d, (T)1, dout, d, Tq * d, v, d, Tk * d, (T)0, ds, Tk, Tq * Tk);
+  const int nt = fused_threads(BH * Tq * Tk);
+#pragma omp parallel for num_threads(nt) schedule(static) if (nt > 1)
+  for (int64_t r = 0; r < BH * Tq; ++r) {
+    const T* p = att + r * Tk;
+    T* g = ds + r * Tk;
+    T dot = 0;
+    for (int64_t j = 0; j < Tk; ++j) dot += p[j] * g[j];
+    for (int64_t j = 0; j < Tk; ++j) g[j] = p[j] * (g[j] - dot) * scale;
+  }
+  if (dq) {
+    check_ptr(op, "k", k);
+    gemm_batched(false, false, BH, Tq, d, Tk, (T)1, ds, Tk, Tq * Tk, k, d, Tk * d, (T)0, dq, d, Tq * d);
+  }
+  if (dk) {
+    check_ptr(op, "q", q);
+    gemm_batched(true, false, BH, Tk, d, Tq, (T)1, ds, Tk, Tq * Tk, q, d, Tq * d, (T)0, dk, d, Tk * d);
+  }
+}
+
+template void attention_forward<float>(float*, float*, const float*, const float*, const float*, const float*,
+                                       const AttentionShape&);
+template void attention_forward<double>(double*, double*, const double*, const double*, const double*,
+                                        const double*, const AttentionShape&);
+template void attention_backward<float>(float*, float*, float*, const float*, const float*, const float*,
+                                        const float*, const float*, const AttentionShape&);
+template void attention_backward<double>(double*, double*, double*, const double*, const double*, const double*,
+                                         const double*, const double*, const AttentionShape&);
+
+}  // namespace t2m::fused

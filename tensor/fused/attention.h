@@ -1,0 +1,36 @@
+// attention.h — scaled dot-product attention (Vaswani et al. 2017, Eq 1): softmax(Q K^T / sqrt(d)) V over
+// (B, H, T, d) heads, with an optional key-padding mask and an optional causal mask.
+//
+// q (B, H, Tq, d), k/v (B, H, Tk, d) contiguous; out (B, H, Tq, d); att (B, H, Tq, Tk) receives the softmax
+// probabilities and must be kept for the backward. key_mask (B, Tk) or null: nonzero = keep, 0 = masked (the
+// same effect as an additive -inf bias: masked keys get probability exactly 0). causal (needs Tq == Tk): query
+// i sees keys j <= i. A query row with no visible key gets probabilities 0 and output 0 (not NaN), and no
+// gradient.
+// Backward writes dq/dk/dv (=); any of them may be null to skip.
+// Scratch (thread-local): slot 2, B*H*Tq*Tk elements (dS) in the backward.
+// The three products per direction are t2m::gemm_batched calls; deterministic for a fixed thread count.
+// Errors: t2m::Error for sizes < 1 (B may be 0), causal with Tq != Tk, null required pointers.
+#pragma once
+#include <cstdint>
+
+namespace t2m::fused {
+
+struct AttentionShape {
+  int64_t B = 1, H = 1, Tq = 1, Tk = 1, d = 1;
+  bool causal = false;
+};
+
+// q (B,H,Tq,d), k/v (B,H,Tk,d), key_mask (B,Tk) or null; out (B,H,Tq,d), att (B,H,Tq,Tk) written.
+template <typename T>
+void attention_forward(T* out, T* att, const T* q, const T* k, const T* v, const T* key_mask,
+                       const AttentionShape& s);
+
+// dout (B,H,Tq,d), att from the forward, q/k/v as in the forward; dq (B,H,Tq,d), dk/dv (B,H,Tk,d) written.
+template <typename T>
+void attention_backward(T* dq, T* dk, T* dv, const T* dout, const T* att, const T* q, const T* k, const T* v,
+                        const AttentionShape& s);
+
+// FLOPs of the forward GEMMs (4 * B*H*Tq*Tk*d); the backward does twice that.
+double attention_forward_flops(const AttentionShape& s);
+
+}  // namespace t2m::fused

@@ -1,0 +1,162 @@
+// conv1d.cpp — im2col into col (Cin*K, B*To) with column index b*To + to, then
+//   forward:  tmp (Cout, B*To) = W (Cout, Cin*K) @ col;        out[b, co, to] = tmp[co, b*To + to] + bias[co]
+//   backward: dtmp (Cout, B*To) = dout transposed to that layout; dbias[co] += row sums of dtmp
+//             dW (Cout, Cin*K) += dtmp @ col^T;  dcol (Cin*K, B*To) = W^T @ dtmp;  dinp = col2im(dcol)
+#include "tensor/fused/conv1d.h"
+
+#include <string>
+
+#include "tensor/fused/kernel_util.h"
+#include "tensor/fused/scratch.h"
+#include "tensor/gemm.h"
+
+namespace t2m::fused {
+
+int64_t Conv1dShape::out_len() const {
+  const char* op = "conv1d";
+  check_dim(op, "B", B, 0);
+  check_dim(op, "Cin", Cin, 1);
+  check_dim(op, "Cout", Cout, 1);
+  check_dim(op, "T", T, 1);
+  check_dim(op, "K", K, 1);
+  check_dim(op, "stride", stride, 1);
+  check_dim(op, "dilation", dilation, 1);
+  check_dim(op, "pad", pad, 0);
+  if (causal && pad != 0)
+    throw Error("conv1d: causal padding is (K-1)*dilation on the left; pad must be 0, got " + std::to_string(pad));
+  const int64_t span = T + pad_left() + pad_right() - dilation * (K - 1) - 1;
+  if (span < 0)
+    throw Error("conv1d: kernel span " + std::to_string(dilation * (K - 1) + 1) + " exceeds padded length " +
+                std::to_string(T + pad_left() + pad_right()) + " (T=" + std::to_string(T) + ")");
+  return span / stride + 1;
+}
+
+double conv1d_forward_flops(const Conv1dShape& s) {
+  return 2.0 * (double)s.B * (double)s.Cout * (double)s.Cin * (double)s.K * (double)s.out_len();
+}
+
+namespace {
+
+// col[(ci*K + k), b*To + to] = x_padded[b, ci, to*stride + k*dilation - padL].
+template <typename T>
+void im2col(T* col, const T* inp, const Conv1dShape& s, int64_t To) {
+  const int64_t BTo = s.B * To, padL = s.pad_left();
+  const int nt = fused_threads(s.Cin * s.K * BTo);
+#pragma omp parallel for collapse(2) num_threads(nt) schedule(static) if (nt > 1)
+  for (int64_t ci = 0; ci < s.Cin; ++ci)
+    for (int64_t k = 0; k < s.K; ++k) {
+      T* row = col + (ci * s.K + k) * BTo;
+      for (int64_t b = 0; b < s.B; ++b) {
+        const T* x = inp + (b * s.Cin + ci) * s.T;
+        T* dst = row + b * To;
+        const int64_t off = k * s.dilation - padL;
+        for (int64_t to = 0; to < To; ++to) {
+          int64_t src = to * s.stride + off;
+          if (src < 0) {
+            dst[to] = s.causal ? x[0] : (T)0;
+          } else if (src >= s.T) {
+            dst[to] = (T)0;
+          } else {
+            dst[to] = x[src];
+          }
+        }
+      }
+    }
+}
+
+// dinp[b, ci, t] = sum of dcol entries that im2col read from (b, ci, t); the causal left pad adds into t = 0.
+template <typename T>
+void col2im(T* dinp, const T* dcol, const Conv1dShape& s, int64_t To) {
+  const int64_t BTo = s.B * To, padL = s.pad_left();
+  const int nt = fused_threads(s.Cin * s.K * BTo);
+#pragma omp parallel for collapse(2) num_threads(nt) schedule(static) if (nt > 1)
+  for (int64_t b = 0; b < s.B; ++b)
+    for (int64_t ci = 0; ci < s.Cin; ++ci) {
+      T* dx = dinp + (b * s.Cin + ci) * s.T;
+      for (int64_t t = 0; t < s.T; ++t) dx[t] = 0;
+      for (int64_t k = 0; k < s.K; ++k) {
+        const T* src = dcol + (ci * s.K + k) * BTo + b * To;
+        const int64_t off = k * s.dilation - padL;
+        for (int64_t to = 0; to < To; ++to) {
+          const int64_t t = to * s.stride + off;
+          if (t < 0) {
+            if (s.causal) dx[0] += src[to];
+          } else if (t < s.T) {
+            dx[t] += src[to];
+          }
+        }
+      }
+    }
+}
+
+}  // namespace
+
+template <typename T>
+void conv1d_forward(T* out, const T* inp, const T* weight, const T* bias, const Conv1dShape& s) {
+  const char* op = "conv1d_forward";
+  const int64_t To = s.out_len();
+  if (s.B == 0) return;
+  check_ptr(op, "out", out);
+  check_ptr(op, "inp", inp);
+  check_ptr(op, "weight", weight);
+  const int64_t CK = s.Cin * s.K, BTo = s.B * To;
+  T* col = fused_scratch<T>(0, CK * BTo);
+  T* tmp = fused_scratch<T>(1, s.Cout * BTo);
+  im2col(col, inp, s, To);
+  gemm(false, false, s.Cout, BTo, CK, (T)1, weight, CK, col, BTo, (T)0, tmp, BTo);
+  const int nt = fused_threads(s.Cout * BTo);
+#pragma omp parallel for collapse(2) num_threads(nt) schedule(static) if (nt > 1)
+  for (int64_t b = 0; b < s.B; ++b)
+    for (int64_t co = 0; co < s.Cout; ++co) {
+      const T* src = tmp + co * BTo + b * To;
+      T* dst = out + (b * s.Cout + co) * To;
+      const T bv = bias ? bias[co] : (T)0;
+      for (int64_t to = 0; to < To; ++to) dst[to] = src[to] + bv;
+    }
+}
+
+template <typename T>
+void conv1d_backward(T* dinp, T* dweight, T* dbias, const T* dout, const T* inp, const T* weight,
+                     const Conv1dShape& s) {
+  const char* op = "conv1d_backward";
+  const int64_t To = s.out_len();
+  if (s.B == 0) return;
+  check_ptr(op, "dout", dout);
+  if (dweight) check_ptr(op, "inp", inp);
+  if (dinp) check_ptr(op, "weight", weight);
+  const int64_t CK = s.Cin * s.K, BTo = s.B * To;
+  T* col = fused_scratch<T>(0, CK * BTo);
+  T* dtmp = fused_scratch<T>(1, s.Cout * BTo);
+  const int nt = fused_threads(s.Cout * BTo);
+#pragma omp parallel for num_threads(nt) schedule(static) if (nt > 1)
+  for (int64_t co = 0; co < s.Cout; ++co) {
+    T* dst = dtmp + co * BTo;
+    T sum = 0;
+    for (int64_t b = 0; b < s.B; ++b) {
+      const T* src = dout + (b * s.Cout + co) * To;
+      for (int64_t to = 0; to < To; ++to) {
+        dst[b * To + to] = src[to];
+        sum += src[to];
+      }
+    }
+    if (dbias) dbias[co] += sum;
+  }
+  if (dweight) {
+    im2col(col, inp, s, To);
+    gemm(false, true, s.Cout, CK, BTo, (T)1, dtmp, BTo, col, BTo, (T)1, dweight, CK);
+  }
+  if (dinp) {
+    T* dcol = col;  // col is no longer needed
+    gemm(true, false, CK, BTo, s.Cout, (T)1, weight, CK, dtmp, BTo, (T)0, dcol, BTo);
+    col2im(dinp, dcol, s, To);
+  }
+}
+
+template void conv1d_forward<float>(float*, const float*, const float*, const float*, const Conv1dShape&);
+template void conv1d_forward<double>(double*, const double*, const double*, const double*, const Conv1dShape&);
+template void conv1d_backward<float>(float*, float*, float*, const float*, const float*, const float*,
+                                     const Conv1dShape&);
+template void conv1d_backward<double>(double*, double*, double*, const double*, const double*, const double*,
+                                      const Conv1dShape&);
+
+}  // namespace t2m::fused

@@ -1,0 +1,41 @@
+// conv1d.h — 1-D convolution over channel-first sequences (the VBB conv VAE), im2col + t2m::gemm.
+//
+// inp (B, Cin, T), weight (Cout, Cin, K), bias (Cout) or null, out (B, Cout, To) with
+//   To = floor((T + padL + padR - dilation*(K-1) - 1) / stride) + 1.
+// Padding: causal == true pads (K-1)*dilation frames on the left by REPLICATING frame 0 (padL = (K-1)*dilation,
+// padR = 0, `pad` must be 0); otherwise `pad` zero frames on both sides (padL = padR = pad).
+// Backward writes dinp (=) and accumulates dweight/dbias (+=); the replicate padding's gradient flows into frame 0.
+// All three GEMMs work on the whole batch at once: the column matrix is (Cin*K, B*To).
+// Scratch (thread-local, scratch.h): slot 0 col (Cin*K * B*To), slot 1 (Cout * B*To) elements; the K=1,
+// stride=1, pad=0 case still uses both (the column matrix is then a copy of the input in (Cin, B*T) layout).
+// Deterministic for a fixed thread count (every reduction has a fixed order).
+// Errors: t2m::Error for sizes < 1 (B may be 0), stride/dilation < 1, pad < 0, causal with pad != 0, To < 1,
+// null required pointers.
+#pragma once
+#include <cstdint>
+
+namespace t2m::fused {
+
+struct Conv1dShape {
+  int64_t B = 1, Cin = 1, Cout = 1, T = 1, K = 1;
+  int64_t stride = 1, dilation = 1, pad = 0;
+  bool causal = false;
+  int64_t pad_left() const { return causal ? (K - 1) * dilation : pad; }
+  int64_t pad_right() const { return causal ? 0 : pad; }
+  int64_t out_len() const;  // To; throws Error when the configuration is invalid or To < 1
+};
+
+// inp (B, Cin, T), weight (Cout, Cin, K), bias (Cout) or null; out (B, Cout, To).
+template <typename T>
+void conv1d_forward(T* out, const T* inp, const T* weight, const T* bias, const Conv1dShape& s);
+
+// dout (B, Cout, To), inp (B, Cin, T), weight (Cout, Cin, K). dinp (B, Cin, T) written (may be null to skip);
+// dweight (Cout, Cin, K) and dbias (Cout) accumulated (+=), each may be null.
+template <typename T>
+void conv1d_backward(T* dinp, T* dweight, T* dbias, const T* dout, const T* inp, const T* weight,
+                     const Conv1dShape& s);
+
+// FLOPs of one forward (2 * B * Cout * Cin * K * To); the backward with dinp and dweight is twice that.
+double conv1d_forward_flops(const Conv1dShape& s);
+
+}  // namespace t2m::fused

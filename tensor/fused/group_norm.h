@@ -1,0 +1,22 @@
+// group_norm.h — GroupNorm (Wu & He 2018) over channel-first conv activations, affine per channel.
+// Conventions as in layer_norm.h: backward writes dinp (=), accumulates dweight/dbias (+=).
+// Statistics are taken over the Cg = C/G channels x T frames of each (batch, group).
+// Scratch: nthreads * 2C elements (parameter-gradient partials).
+// Errors: t2m::Error for B < 0, C/T/G < 1, C not divisible by G, eps < 0, null required pointers.
+#pragma once
+#include <cstdint>
+
+namespace t2m::fused {
+
+// inp (B, C, T), weight/bias (C) or null; out (B, C, T); mean/rstd (B, G) saved for backward.
+template <typename T>
+void group_norm_forward(T* out, T* mean, T* rstd, const T* inp, const T* weight, const T* bias, int64_t B,
+                        int64_t C, int64_t Tlen, int64_t G, T eps);
+
+// dout, inp (B, C, T); weight (C) or null; mean/rstd (B, G). dinp (B, C, T) written; dweight/dbias (C)
+// accumulated, each may be null.
+template <typename T>
+void group_norm_backward(T* dinp, T* dweight, T* dbias, const T* dout, const T* inp, const T* weight,
+                         const T* mean, const T* rstd, int64_t B, int64_t C, int64_t Tlen, int64_t G);
+
+}  // namespace t2m::fused

@@ -1,0 +1,123 @@
+// layer_norm.cpp — two-pass statistics per row; backward in the standard fused form
+// dx = rstd * (dn - mean(dn) - n * mean(dn * n)) with n the normalised input and dn = dy * weight.
+#include "tensor/fused/layer_norm.h"
+
+#include <omp.h>
+
+#include <cmath>
+#include <cstring>
+
+#include "tensor/fused/kernel_util.h"
+#include "tensor/fused/scratch.h"
+
+namespace t2m::fused {
+
+template <typename T>
+void layer_norm_forward(T* out, T* mean, T* rstd, const T* inp, const T* weight, const T* bias, int64_t N,
+                        int64_t C, T eps) {
+  const char* op = "layer_norm_forward";
+  check_dim(op, "N", N, 0);
+  check_dim(op, "C", C, 1);
+  if (!(eps >= 0)) throw Error("layer_norm_forward: eps must be >= 0");
+  if (N == 0) return;
+  check_ptr(op, "out", out);
+  check_ptr(op, "mean", mean);
+  check_ptr(op, "rstd", rstd);
+  check_ptr(op, "inp", inp);
+  const int nt = fused_threads(N * C);
+#pragma omp parallel for num_threads(nt) schedule(static) if (nt > 1)
+  for (int64_t i = 0; i < N; ++i) {
+    const T* x = inp + i * C;
+    T* y = out + i * C;
+    T s = 0;
+    for (int64_t c = 0; c < C; ++c) s += x[c];
+    const T m = s / (T)C;
+    T v = 0;
+    for (int64_t c = 0; c < C; ++c) {
+      T d = x[c] - m;
+      v += d * d;
+    }
+    const T r = (T)1 / std::sqrt(v / (T)C + eps);
+    mean[i] = m;
+    rstd[i] = r;
+    if (weight && bias) {
+      for (int64_t c = 0; c < C; ++c) y[c] = (x[c] - m) * r * weight[c] + bias[c];
+    } else if (weight) {
+      for (int64_t c = 0; c < C; ++c) y[c] = (x[c] - m) * r * weight[c];
+    } else if (bias) {
+      for (int64_t c = 0; c < C; ++c) y[c] = (x[c] - m) * r + bias[c];
+    } else {
+      for (int64_t c = 0; c < C; ++c) y[c] = (x[c] - m) * r;
+    }
+  }
+}
+
+template <typename T>
+void layer_norm_backward(T* dinp, T* dweight, T* dbias, const T* dout, const T* inp, const T* weight,
+                         const T* mean, const T* rstd, int64_t N, int64_t C) {
+  const char* op = "layer_norm_backward";
+  check_dim(op, "N", N, 0);
+  check_dim(op, "C", C, 1);
+  if (N == 0) return;
+  check_ptr(op, "dinp", dinp);
+  check_ptr(op, "dout", dout);
+  check_ptr(op, "inp", inp);
+  check_ptr(op, "mean", mean);
+  check_ptr(op, "rstd", rstd);
+  const int nt = fused_threads(N * C);
+  const bool want_params = dweight || dbias;
+  T* partial = want_params ? fused_scratch<T>(0, (int64_t)nt * 2 * C) : nullptr;
+  if (partial) std::memset(partial, 0, sizeof(T) * nt * 2 * C);
+#pragma omp parallel num_threads(nt) if (nt > 1)
+  {
+    const int tid = omp_get_thread_num();
+    const auto [i0, i1] = row_range(N, tid, omp_get_num_threads());
+    T* pw = partial ? partial + (int64_t)tid * 2 * C : nullptr;
+    T* pb = pw ? pw + C : nullptr;
+    for (int64_t i = i0; i < i1; ++i) {
+      const T* x = inp + i * C;
+      const T* dy = dout + i * C;
+      T* dx = dinp + i * C;
+      const T m = mean[i], r = rstd[i];
+      T sum_dn = 0, sum_dn_n = 0;
+      for (int64_t c = 0; c < C; ++c) {
+        const T n = (x[c] - m) * r;
+        const T dn = weight ? dy[c] * weight[c] : dy[c];
+        sum_dn += dn;
+        sum_dn_n += dn * n;
+      }
+      const T mdn = sum_dn / (T)C, mdnn = sum_dn_n / (T)C;
+      for (int64_t c = 0; c < C; ++c) {
+        const T n = (x[c] - m) * r;
+        const T dn = weight ? dy[c] * weight[c] : dy[c];
+        dx[c] = r * (dn - mdn - n * mdnn);
+      }
+      if (pw) {
+        for (int64_t c = 0; c < C; ++c) {
+          pw[c] += dy[c] * (x[c] - m) * r;
+          pb[c] += dy[c];
+        }
+      }
+    }
+  }
+  if (partial) {
+    for (int t = 0; t < nt; ++t) {
+      const T* pw = partial + (int64_t)t * 2 * C;
+      if (dweight)
+        for (int64_t c = 0; c < C; ++c) dweight[c] += pw[c];
+      if (dbias)
+        for (int64_t c = 0; c < C; ++c) dbias[c] += pw[C + c];
+    }
+  }
+}
+
+template void layer_norm_forward<float>(float*, float*, float*, const float*, const float*, const float*, int64_t,
+                                        int64_t, float);
+template void layer_norm_forward<double>(double*, double*, double*, const double*, const double*, const double*,
+                                         int64_t, int64_t, double);
+template void layer_norm_backward<float>(float*, float*, float*, const float*, const float*, const float*,
+                                         const float*, const float*, int64_t, int64_t);
+template void layer_norm_backward<double>(double*, double*, double*, const double*, const double*, const double*,
+                                          const double*, const double*, int64_t, int64_t);
+
+}  // namespace t2m::fused
