@@ -1,5 +1,6 @@
 // cmd_bench.cpp — `t2m bench`: times our float GEMM on the micro-suite shapes and prints a table
-// (shape, threads, ms, GFLOP/s, % of FMA peak, kernel), optionally with Eigen side by side.
+// (shape, threads, median ms, GFLOP/s, % of FMA peak, best-rep GFLOP/s, CPU-time GFLOP/s, kernel), optionally with
+// Eigen side by side. See bench/lib/gemm_bench.h for what each column means.
 // Only built with the benchmark library (T2M_HAVE_BENCH, i.e. -DT2M_BUILD_BENCH=ON).
 #ifdef T2M_HAVE_BENCH
 #include <cstdio>
@@ -55,16 +56,18 @@ void run_bench(const BenchOptions& o) {
   const int saved = t2m::get_num_threads();
   std::printf("# t2m bench: float GEMM, median of %d reps after %d warm-up; peak = %.0f GFLOP/s per thread\n", o.reps,
               o.warmup, kPeakGflopsPerCore);
-  std::printf("%-22s %7s %10s %9s %7s %9s %-7s", "shape (MxNxK:op)", "threads", "ms", "GFLOP/s", "%peak", "best GF",
-              "kernel");
+  std::printf("%-22s %7s %10s %9s %7s %9s %8s %-7s", "shape (MxNxK:op)", "threads", "ms", "GFLOP/s", "%peak",
+              "best GF", "cpu GF", "kernel");
   if (o.eigen) std::printf(" %10s %9s %10s %6s", "eigen ms", "eigen GF", "eigen best", "ratio");
   std::printf("\n");
   for (const auto& s : shapes) {
     GemmOperands ops(s);
     for (int t : threads) {
       const GemmTiming r = time_gemm(ops, t, o.reps, o.warmup);
-      std::printf("%-22s %7d %10.3f %9.1f %6.1f%% %9.1f %-7s", s.name().c_str(), t, r.median_ms, r.gflops, r.pct_peak,
-                  s.flops() / (r.best_ms * 1e6), t2m::gemm_kernel_name());
+      // CPU-time GFLOP/s only for 1 thread (with more, descheduled workers and spin-waits make it meaningless).
+      const std::string cpu = t == 1 ? std::to_string(int(r.cpu_gflops + 0.5)) : std::string("-");
+      std::printf("%-22s %7d %10.3f %9.1f %6.1f%% %9.1f %8s %-7s", s.name().c_str(), t, r.median_ms, r.gflops,
+                  r.pct_peak, s.flops() / (r.best_ms * 1e6), cpu.c_str(), t2m::gemm_kernel_name());
       if (o.eigen) {
         const GemmTiming e = time_eigen(ops, t, o.reps, o.warmup);
         std::printf(" %10.3f %9.1f %10.1f %5.2fx", e.median_ms, e.gflops, s.flops() / (e.best_ms * 1e6),

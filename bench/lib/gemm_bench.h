@@ -41,6 +41,10 @@ struct GemmTiming {
   double median_ms = 0, best_ms = 0;
   double gflops = 0;    // at the median
   double pct_peak = 0;  // gflops / (kPeakGflopsPerCore * threads)
+  // flops / (process CPU seconds of the fastest rep) × threads: the speed while actually on a core. On a quiet
+  // machine it equals the wall-clock figure; on a shared, oversubscribed one it filters out time spent
+  // descheduled. Meaningful for 1 thread only (with more, a descheduled worker's time is simply missing).
+  double cpu_gflops = 0;
 };
 
 // Sets t2m's thread count, runs `warmup` untimed calls then `reps` timed ones; median and best of reps.
