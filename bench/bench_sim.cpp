@@ -4,17 +4,26 @@
 // Workload: VecEnv with 8 envs; each env holds the reference pose with small sinusoidal PD targets (actions), and
 // is reset to the standing pose every 60 control steps (2 s), so the timing mixes standing, stepping and fallen
 // states, like PD tracking does. items_per_second = control steps per second over all envs.
+// Counter cpu_us_per_step: process CPU time per control step (all threads).
 // Args: {threads, variant}; variant 0 = ours (Euler, Newton 8 iterations, body-floor contacts only),
 // 1 = implicit integrator, 2 = + self collision, 3 = 100 solver iterations (MuJoCo's default).
 #include <benchmark/benchmark.h>
 #include <omp.h>
 
+#include <algorithm>
 #include <cmath>
+#include <ctime>
 #include <vector>
 
 #include "sim/env.h"
 
 using namespace t2m::sim;
+
+static double process_cpu_s() {
+  timespec ts;
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return ts.tv_sec + 1e-9 * ts.tv_nsec;
+}
 
 static void BM_HumanoidControlStep(benchmark::State& state) {
   const int threads = (int)state.range(0), variant = (int)state.range(1);
@@ -33,6 +42,7 @@ static void BM_HumanoidControlStep(benchmark::State& state) {
   omp_set_num_threads(threads);
   long steps = 0, t = 0;
   for (int i = 0; i < N; ++i) venv.env(i).reset(nullptr, nullptr, nullptr);
+  const double cpu0 = process_cpu_s();
   for (auto _ : state) {
     if (t % 60 == 0)
       for (int i = 0; i < N; ++i) venv.env(i).reset(nullptr, nullptr, nullptr);
@@ -43,6 +53,9 @@ static void BM_HumanoidControlStep(benchmark::State& state) {
     ++t;
   }
   state.SetItemsProcessed(steps);
+  // CPU seconds of all threads per control step: the cost that scales with cores on an idle machine
+  // (wall-clock items_per_second is what a loaded, shared machine gives).
+  state.counters["cpu_us_per_step"] = 1e6 * (process_cpu_s() - cpu0) / std::max(1L, steps);
   state.counters["contacts"] = venv.env(0).data()->ncon;
 }
 BENCHMARK(BM_HumanoidControlStep)
