@@ -1,5 +1,7 @@
 // attention.cpp — S = scale Q K^T (gemm_batched) into att, masked max-subtracted softmax in place, out = P V.
 // Backward: dV = P^T dO; dP = dO V^T; dS = P * (dP - rowsum(P * dP)) * scale; dQ = dS K; dK = dS^T Q.
+// exp_approx's clamps vectorise only without -ftrapping-math; nothing here reads floating-point exception flags.
+#pragma GCC optimize("no-trapping-math")
 #include "tensor/fused/attention.h"
 
 #include <cmath>
@@ -63,13 +65,14 @@ void attention_forward(T* out, T* att, const T* q, const T* k, const T* v, const
       for (int64_t j = 0; j < Tk; ++j) p[j] = 0;
       continue;
     }
-    T sum = 0;
-    for (int64_t j = 0; j < jend; ++j) {
-      const T e = (m && m[j] == (T)0) ? (T)0 : fexp(p[j] - mx);
-      p[j] = e;
-      sum += e;
-    }
+    for (int64_t j = 0; j < jend; ++j) p[j] = fexp(p[j] - mx);
+    if (m)
+      for (int64_t j = 0; j < jend; ++j)
+        if (m[j] == (T)0) p[j] = 0;
     for (int64_t j = jend; j < Tk; ++j) p[j] = 0;
+    T sum = 0;
+#pragma omp simd reduction(+ : sum)
+    for (int64_t j = 0; j < jend; ++j) sum += p[j];
     const T inv = (T)1 / sum;
     for (int64_t j = 0; j < jend; ++j) p[j] *= inv;
   }
@@ -97,6 +100,7 @@ void attention_backward(T* dq, T* dk, T* dv, const T* dout, const T* att, const 
     const T* p = att + r * Tk;
     T* g = ds + r * Tk;
     T dot = 0;
+#pragma omp simd reduction(+ : dot)
     for (int64_t j = 0; j < Tk; ++j) dot += p[j] * g[j];
     for (int64_t j = 0; j < Tk; ++j) g[j] = p[j] * (g[j] - dot) * scale;
   }

@@ -5,6 +5,7 @@
 #include "tensor/fused/conv1d.h"
 
 #include <string>
+#include <utility>
 
 #include "tensor/fused/kernel_util.h"
 #include "tensor/fused/scratch.h"
@@ -37,6 +38,16 @@ double conv1d_forward_flops(const Conv1dShape& s) {
 
 namespace {
 
+// Outputs `to` whose input frame to*stride + off lies in [0, T): the range [lo, hi). Below lo the frame is left
+// of the sequence (padding), from hi on right of it.
+std::pair<int64_t, int64_t> valid_outputs(int64_t off, const Conv1dShape& s, int64_t To) {
+  int64_t lo = off >= 0 ? 0 : (-off + s.stride - 1) / s.stride;
+  int64_t hi = (s.T - 1 - off) < 0 ? 0 : (s.T - 1 - off) / s.stride + 1;
+  lo = lo < To ? lo : To;
+  hi = hi < lo ? lo : (hi > To ? To : hi);
+  return {lo, hi};
+}
+
 // col[(ci*K + k), b*To + to] = x_padded[b, ci, to*stride + k*dilation - padL].
 template <typename T>
 void im2col(T* col, const T* inp, const Conv1dShape& s, int64_t To) {
@@ -50,16 +61,15 @@ void im2col(T* col, const T* inp, const Conv1dShape& s, int64_t To) {
         const T* x = inp + (b * s.Cin + ci) * s.T;
         T* dst = row + b * To;
         const int64_t off = k * s.dilation - padL;
-        for (int64_t to = 0; to < To; ++to) {
-          int64_t src = to * s.stride + off;
-          if (src < 0) {
-            dst[to] = s.causal ? x[0] : (T)0;
-          } else if (src >= s.T) {
-            dst[to] = (T)0;
-          } else {
-            dst[to] = x[src];
-          }
+        const auto [lo, hi] = valid_outputs(off, s, To);
+        const T left = s.causal ? x[0] : (T)0;
+        for (int64_t to = 0; to < lo; ++to) dst[to] = left;
+        if (s.stride == 1) {
+          for (int64_t to = lo; to < hi; ++to) dst[to] = x[to + off];
+        } else {
+          for (int64_t to = lo; to < hi; ++to) dst[to] = x[to * s.stride + off];
         }
+        for (int64_t to = hi; to < To; ++to) dst[to] = (T)0;
       }
     }
 }
@@ -77,13 +87,13 @@ void col2im(T* dinp, const T* dcol, const Conv1dShape& s, int64_t To) {
       for (int64_t k = 0; k < s.K; ++k) {
         const T* src = dcol + (ci * s.K + k) * BTo + b * To;
         const int64_t off = k * s.dilation - padL;
-        for (int64_t to = 0; to < To; ++to) {
-          const int64_t t = to * s.stride + off;
-          if (t < 0) {
-            if (s.causal) dx[0] += src[to];
-          } else if (t < s.T) {
-            dx[t] += src[to];
-          }
+        const auto [lo, hi] = valid_outputs(off, s, To);
+        if (s.causal)
+          for (int64_t to = 0; to < lo; ++to) dx[0] += src[to];
+        if (s.stride == 1) {
+          for (int64_t to = lo; to < hi; ++to) dx[to + off] += src[to];
+        } else {
+          for (int64_t to = lo; to < hi; ++to) dx[to * s.stride + off] += src[to];
         }
       }
     }

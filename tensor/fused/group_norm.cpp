@@ -45,9 +45,11 @@ void group_norm_forward(T* out, T* mean, T* rstd, const T* inp, const T* weight,
     const T* x = inp + bg * n;
     T* y = out + bg * n;
     T s = 0;
+#pragma omp simd reduction(+ : s)
     for (int64_t i = 0; i < n; ++i) s += x[i];
     const T m = s / (T)n;
     T v = 0;
+#pragma omp simd reduction(+ : v)
     for (int64_t i = 0; i < n; ++i) {
       const T d = x[i] - m;
       v += d * d;
@@ -101,6 +103,7 @@ void group_norm_backward(T* dinp, T* dweight, T* dbias, const T* dout, const T* 
         const T* xc = x + cc * Tlen;
         const T* dyc = dy + cc * Tlen;
         T s_dy = 0, s_dy_n = 0;
+#pragma omp simd reduction(+ : s_dy, s_dy_n)
         for (int64_t t = 0; t < Tlen; ++t) {
           const T nn = (xc[t] - m) * r;
           s_dy += dyc[t];

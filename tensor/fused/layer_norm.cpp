@@ -30,9 +30,11 @@ void layer_norm_forward(T* out, T* mean, T* rstd, const T* inp, const T* weight,
     const T* x = inp + i * C;
     T* y = out + i * C;
     T s = 0;
+#pragma omp simd reduction(+ : s)
     for (int64_t c = 0; c < C; ++c) s += x[c];
     const T m = s / (T)C;
     T v = 0;
+#pragma omp simd reduction(+ : v)
     for (int64_t c = 0; c < C; ++c) {
       T d = x[c] - m;
       v += d * d;
@@ -80,6 +82,7 @@ void layer_norm_backward(T* dinp, T* dweight, T* dbias, const T* dout, const T* 
       T* dx = dinp + i * C;
       const T m = mean[i], r = rstd[i];
       T sum_dn = 0, sum_dn_n = 0;
+#pragma omp simd reduction(+ : sum_dn, sum_dn_n)
       for (int64_t c = 0; c < C; ++c) {
         const T n = (x[c] - m) * r;
         const T dn = weight ? dy[c] * weight[c] : dy[c];

@@ -27,6 +27,7 @@ void rms_norm_forward(T* out, T* rstd, const T* inp, const T* weight, int64_t N,
     const T* x = inp + i * C;
     T* y = out + i * C;
     T ss = 0;
+#pragma omp simd reduction(+ : ss)
     for (int64_t c = 0; c < C; ++c) ss += x[c] * x[c];
     const T r = (T)1 / std::sqrt(ss / (T)C + eps);
     rstd[i] = r;
@@ -63,6 +64,7 @@ void rms_norm_backward(T* dinp, T* dweight, const T* dout, const T* inp, const T
       T* dx = dinp + i * C;
       const T r = rstd[i];
       T sum_dn_n = 0;
+#pragma omp simd reduction(+ : sum_dn_n)
       for (int64_t c = 0; c < C; ++c) {
         const T dn = weight ? dy[c] * weight[c] : dy[c];
         sum_dn_n += dn * x[c] * r;

@@ -1,4 +1,6 @@
 // softmax.cpp — row-wise, one pass for the max, one for exp and sum, one to scale.
+// exp_approx's clamps vectorise only without -ftrapping-math; nothing here reads floating-point exception flags.
+#pragma GCC optimize("no-trapping-math")
 #include "tensor/fused/softmax.h"
 
 #include <cmath>
@@ -30,11 +32,10 @@ void softmax_forward(T* out, const T* inp, int64_t N, int64_t C) {
     T* y = out + i * C;
     T mx = x[0];
     for (int64_t c = 1; c < C; ++c) mx = x[c] > mx ? x[c] : mx;
+    for (int64_t c = 0; c < C; ++c) y[c] = fexp(x[c] - mx);
     T s = 0;
-    for (int64_t c = 0; c < C; ++c) {
-      y[c] = fexp(x[c] - mx);
-      s += y[c];
-    }
+#pragma omp simd reduction(+ : s)
+    for (int64_t c = 0; c < C; ++c) s += y[c];
     const T inv = (T)1 / s;
     for (int64_t c = 0; c < C; ++c) y[c] *= inv;
   }
@@ -51,6 +52,7 @@ void softmax_backward(T* dinp, const T* dout, const T* out, int64_t N, int64_t C
     const T* y = out + i * C;
     T* dx = dinp + i * C;
     T s = 0;
+#pragma omp simd reduction(+ : s)
     for (int64_t c = 0; c < C; ++c) s += dy[c] * y[c];
     for (int64_t c = 0; c < C; ++c) dx[c] = y[c] * (dy[c] - s);
   }
@@ -67,6 +69,7 @@ void log_softmax_forward(T* out, const T* inp, int64_t N, int64_t C) {
     T mx = x[0];
     for (int64_t c = 1; c < C; ++c) mx = x[c] > mx ? x[c] : mx;
     T s = 0;
+#pragma omp simd reduction(+ : s)
     for (int64_t c = 0; c < C; ++c) s += fexp(x[c] - mx);
     const T lse = mx + std::log(s);
     for (int64_t c = 0; c < C; ++c) y[c] = x[c] - lse;
@@ -84,6 +87,7 @@ void log_softmax_backward(T* dinp, const T* dout, const T* out, int64_t N, int64
     const T* y = out + i * C;
     T* dx = dinp + i * C;
     T s = 0;
+#pragma omp simd reduction(+ : s)
     for (int64_t c = 0; c < C; ++c) s += dy[c];
     for (int64_t c = 0; c < C; ++c) dx[c] = dy[c] - fexp(y[c]) * s;
   }
