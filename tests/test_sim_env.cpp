@@ -1,7 +1,10 @@
 // test_sim_env.cpp — Env / VecEnv / observation on small inline MJCF fixtures and on our humanoid.
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <cmath>
+#include <cstdlib>
+#include <new>
 #include <vector>
 
 #include "sim/env.h"
@@ -9,6 +12,16 @@
 #include "tensor/tensor.h"
 
 using namespace t2m::sim;
+
+// Counts every operator new of this test program, to check that stepping allocates nothing.
+static std::atomic<long> g_news{0};
+void* operator new(std::size_t n) {
+  ++g_news;
+  if (void* p = std::malloc(n ? n : 1)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
 
 namespace {
 const char* kBoxXml = R"(
@@ -156,4 +169,19 @@ TEST(SimEnv, HumanoidVecEnvMatchesSerialAndStaysFinite) {
     EXPECT_EQ(obs[2 * venv.obs_dim() + k], obs1[k]) << k;  // bitwise identical: envs are independent
   }
   EXPECT_NEAR(venv.env(0).data()->time, 10 * kControlDt, 1e-9);
+}
+
+TEST(SimEnv, StepAllocatesNothing) {
+  auto h = Humanoid::create();
+  VecEnv venv(h, 2);
+  std::vector<float> act(2 * venv.action_dim(), 0.1f), obs(2 * venv.obs_dim());
+  for (int i = 0; i < 2; ++i) venv.env(i).reset(nullptr, nullptr, nullptr);
+  venv.step(act.data(), obs.data());  // warm-up (OpenMP thread pool start)
+  const long before = g_news.load();
+  for (int t = 0; t < 5; ++t) venv.step(act.data(), obs.data());
+  std::vector<double> ctrl(venv.action_dim(), 0.0);
+  const long mid = g_news.load();  // the vector above allocated once
+  venv.env(0).step_targets(ctrl.data(), obs.data());
+  EXPECT_EQ(mid - before, 1);
+  EXPECT_EQ(g_news.load(), mid);
 }
