@@ -37,12 +37,15 @@ Variable sub(const Variable& a, const Variable& b) {
 }
 
 // out = a * b. da = sum_to(g * b, A), db = sum_to(g * a, B).
+// Saves a only when b needs a gradient and vice versa (x * constant_mask does not keep x alive).
 Variable mul(const Variable& a, const Variable& b) {
-  Tensor ta = a.data(), tb = b.data();
-  return record("mul", t2m::mul(ta, tb), {a, b}, [ta, tb](const Tensor& g, const std::vector<bool>& need) {
-    return std::vector<Tensor>{need[0] ? sum_to(t2m::mul(g, tb), ta.shape()) : Tensor(),
-                               need[1] ? sum_to(t2m::mul(g, ta), tb.shape()) : Tensor()};
-  });
+  Shape A = a.shape(), B = b.shape();
+  Tensor sa = b.requires_grad() ? a.data() : Tensor(), sb = a.requires_grad() ? b.data() : Tensor();
+  return record("mul", t2m::mul(a.data(), b.data()), {a, b},
+                [sa, sb, A, B](const Tensor& g, const std::vector<bool>& need) {
+                  return std::vector<Tensor>{need[0] ? sum_to(t2m::mul(g, sb), A) : Tensor(),
+                                             need[1] ? sum_to(t2m::mul(g, sa), B) : Tensor()};
+                });
 }
 
 // out = a / b. da = sum_to(g / b, A), db = sum_to(-g * out / b, B).
