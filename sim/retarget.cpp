@@ -4,6 +4,9 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
 #include <string>
 
 #include "sim/observation.h"
@@ -238,6 +241,57 @@ ReplayError replay_error(const Humanoid& h, const QposTrajectory& q, const Motio
     }
   e.mean_m = q.frames > 0 ? sum / ((double)q.frames * kNumJoints) : 0.0;
   return e;
+}
+
+void save_trajectory_json(const QposTrajectory& q, const std::string& path) {
+  if (q.qpos.size() != (size_t)q.frames * q.nq || (!q.qvel.empty() && q.qvel.size() != (size_t)q.frames * q.nv))
+    throw Error("save_trajectory_json: sizes do not match frames * nq / nv for '" + path + "'");
+  nlohmann::json j = {{"format", "t2m-qpos-1"}, {"fps", q.fps}, {"nq", q.nq},       {"nv", q.nv},
+                      {"frames", q.frames},     {"qpos", q.qpos}, {"qvel", q.qvel}};
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream f(tmp);
+    if (!f) throw Error("save_trajectory_json: cannot write '" + path + "'");
+    f << j.dump() << "\n";
+    if (!f) throw Error("save_trajectory_json: write failed for '" + path + "'");
+  }
+  std::filesystem::rename(tmp, path);
+}
+
+QposTrajectory load_trajectory_json(const Humanoid& h, const std::string& path) {
+  std::ifstream f(path);
+  if (!f) throw Error("load_trajectory_json: cannot open '" + path + "'");
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(f);
+  } catch (const std::exception& e) {
+    throw Error("load_trajectory_json: '" + path + "' is not valid JSON: " + e.what());
+  }
+  const mjModel* m = h.model();
+  QposTrajectory q;
+  try {
+    if (j.at("format").get<std::string>() != "t2m-qpos-1") throw Error("wrong format tag");
+    q.fps = j.at("fps").get<double>();
+    q.nq = j.at("nq").get<int>();
+    q.nv = j.at("nv").get<int>();
+    q.frames = j.at("frames").get<int>();
+    q.qpos = j.at("qpos").get<std::vector<double>>();
+    if (j.contains("qvel")) q.qvel = j.at("qvel").get<std::vector<double>>();
+  } catch (const std::exception& e) {
+    throw Error("load_trajectory_json: '" + path + "': bad content (" + e.what() + ")");
+  }
+  if (q.nq != m->nq || q.nv != m->nv || q.frames < 1 || !(q.fps > 0) || q.qpos.size() != (size_t)q.frames * q.nq ||
+      (!q.qvel.empty() && q.qvel.size() != (size_t)q.frames * q.nv))
+    throw Error("load_trajectory_json: '" + path + "': " + std::to_string(q.frames) + " frames, nq " +
+                std::to_string(q.nq) + ", nv " + std::to_string(q.nv) + ", " + std::to_string(q.qpos.size()) +
+                " qpos values, fps " + std::to_string(q.fps) + " (model nq " + std::to_string(m->nq) + ", nv " +
+                std::to_string(m->nv) + ")");
+  for (double v : q.qpos)
+    if (!std::isfinite(v)) throw Error("load_trajectory_json: '" + path + "' has non-finite qpos");
+  for (double v : q.qvel)
+    if (!std::isfinite(v)) throw Error("load_trajectory_json: '" + path + "' has non-finite qvel");
+  if (q.qvel.empty()) trajectory_velocities(h, q);
+  return q;
 }
 
 }  // namespace t2m::sim

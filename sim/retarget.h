@@ -13,6 +13,7 @@
 // humanoid's bone offsets, pos by sim FK. motion_from_qpos(retarget(m)) == m up to clamping and floor_shift.
 // Errors: a Motion failing validate_motion, a model that is not our humanoid, wrong qpos sizes -> t2m::Error.
 #pragma once
+#include <string>
 #include <vector>
 
 #include "sim/humanoid.h"
@@ -45,6 +46,13 @@ struct ReplayError {
   double max_m = 0;
 };
 ReplayError replay_error(const Humanoid& h, const QposTrajectory& q, const Motion& m);
+
+// A state sequence on disk (JSON): {"format": "t2m-qpos-1", "fps": 30, "nq": 67, "nv": 66, "frames": T,
+// "qpos": [T*nq numbers], "qvel": [T*nv numbers]} (qvel may be absent: then recomputed by finite differences when
+// loaded for a humanoid). save writes PATH.tmp then renames. load throws t2m::Error on a missing file, bad JSON,
+// wrong format tag, sizes that do not match, non-finite values, or nq/nv different from the model's.
+void save_trajectory_json(const QposTrajectory& q, const std::string& path);
+QposTrajectory load_trajectory_json(const Humanoid& h, const std::string& path);
 
 // Euler helpers (exposed for tests): R (row-major 3x3) = R_a(e0) R_b(e1) R_c(e2) for axes order {a, b, c}, a
 // permutation of {0, 1, 2}; decompose returns e1 in [-pi/2, pi/2].

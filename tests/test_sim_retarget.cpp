@@ -2,6 +2,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <fstream>
 #include <random>
 
 #include "sim/bvh.h"
@@ -287,4 +289,24 @@ TEST(SimRetarget, BadInputThrows) {
   EXPECT_THROW(replay_joint_positions(h, q), t2m::Error);
   auto box = Humanoid::from_xml("<mujoco><worldbody><body><freejoint/><geom size='0.1'/></body></worldbody></mujoco>");
   EXPECT_THROW(retarget(*box, motion_from_qpos(h, random_trajectory(h, 1, 1))), t2m::Error);
+}
+
+TEST(SimRetarget, TrajectoryJsonRoundTripAndErrors) {
+  const auto& h = *humanoid();
+  const QposTrajectory q = random_trajectory(h, 3, 9);
+  const std::string path = testing::TempDir() + "/t2m_traj.json";
+  save_trajectory_json(q, path);
+  const QposTrajectory b = load_trajectory_json(h, path);
+  EXPECT_EQ(b.frames, 3);
+  EXPECT_EQ(b.qpos, q.qpos);
+  EXPECT_EQ(b.qvel, q.qvel);
+  auto write = [&](const std::string& text) { std::ofstream(path) << text; };
+  write("{not json");
+  EXPECT_THROW(load_trajectory_json(h, path), t2m::Error);
+  write(R"({"format": "t2m-qpos-1", "fps": 30, "nq": 5, "nv": 4, "frames": 1, "qpos": [0, 0, 0, 0, 0]})");
+  EXPECT_THROW(load_trajectory_json(h, path), t2m::Error);  // not the humanoid's nq
+  write(R"({"format": "other"})");
+  EXPECT_THROW(load_trajectory_json(h, path), t2m::Error);
+  std::remove(path.c_str());
+  EXPECT_THROW(load_trajectory_json(h, path), t2m::Error);  // missing file
 }

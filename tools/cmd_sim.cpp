@@ -3,8 +3,9 @@
 //   t2m track-pd  [clip selection] [--out J]    PD tracking baseline: success, MPJPE, root drift, fall rate
 //   t2m export    --bvh IN --out OUT.bvh [--mode pd|replay]   simulated (or replayed) motion -> BVH
 //   t2m render    --bvh IN --out OUT.mp4 [--frames-dir D] [--mode replay|pd]   offscreen video / PNG frames
+//   (export and render also take --qpos STATES.json, a state sequence, instead of --bvh)
 // Clip selection: --bvh FILE (repeatable) or every *.bvh under --clips DIR (default $T2M_CACHE/bandai, else
-// ~/.cache/t2m/bandai), filtered by --split (all | train | val | test: models/data/splits; take0: takes ending
+// ~/.cache/t2m/bandai), filtered by --split (ignored for explicit --bvh files) (all | train | val | test: models/data/splits; take0: takes ending
 // in 0) and --max-clips. Clips run in parallel (OpenMP, --threads). Every run prints a summary and, with --out,
 // writes a JSON summary with per-clip numbers.
 #include <omp.h>
@@ -82,7 +83,7 @@ std::vector<std::pair<std::string, std::string>> select_clips(const ClipArgs& a)
   }
   std::sort(all.begin(), all.end());
   std::vector<std::pair<std::string, std::string>> sel;
-  if (a.split == "all") {
+  if (a.split == "all" || !a.bvh.empty()) {  // explicit --bvh files are used as given
     sel = all;
   } else if (a.split == "take0") {
     for (auto& c : all)
@@ -209,7 +210,10 @@ void run_track_pd(const PdArgs& a) {
       ok[i] = 1;
       row.update({{"frames", r.frames}, {"success", r.success}, {"fell", r.fell}, {"mpjpe_m", r.mpjpe_m},
                   {"root_drift_m", r.root_drift_m}, {"frames_ok", r.frames_ok}, {"max_error_m", r.max_error_m}});
-      if (!a.export_dir.empty()) sim::export_bvh_file(*h, r.simulated, a.export_dir + "/" + clips[i].first + ".bvh");
+      if (!a.export_dir.empty()) {
+        sim::export_bvh_file(*h, r.simulated, a.export_dir + "/" + clips[i].first + ".bvh");
+        sim::save_trajectory_json(r.simulated, a.export_dir + "/" + clips[i].first + ".qpos.json");
+      }
       res[i].simulated = {};  // free the trajectory
     } catch (const std::exception& ex) {
       row["error"] = ex.what();
@@ -237,23 +241,32 @@ void run_track_pd(const PdArgs& a) {
             {"assist_force_n", a.assist},
             {"velocity_feedforward", !a.no_ff},
             {"control_steps_per_s", frames / std::max(secs, 1e-9)}};
-  std::printf("track-pd (%s split, %d clips, assist %.0f N%s): success %.1f%%, fall %.1f%%, MPJPE %.1f mm, root drift "
+  std::printf("track-pd (%s, %d clips, assist %.0f N%s): success %.1f%%, fall %.1f%%, MPJPE %.1f mm, root drift "
               "%.2f m, frames tracked %.1f%%, %.0f control steps/s\n",
-              a.clips.split.c_str(), n, a.assist, a.no_ff ? ", no feed-forward" : "", 100 * succ / dn,
+              a.clips.bvh.empty() ? (a.clips.split + " split").c_str() : "given files", n, a.assist, a.no_ff ? ", no feed-forward" : "", 100 * succ / dn,
               100 * fell / dn, 1e3 * mpjpe / dn, drift / dn, 100 * frac_ok / dn, s["control_steps_per_s"].get<double>());
   write_json(a.clips.out, {{"command", "track-pd"}, {"split", a.clips.split}, {"summary", s}, {"clips", rows}});
 }
 
 // ---- t2m export / t2m render ----
 struct OneArgs {
-  std::string bvh, out, frames_dir, mode;
+  std::string bvh, qpos, out, frames_dir, mode;
   double assist = 0;
   int width = 640, height = 480, max_frames = 0;
   bool shadows = false;
 };
 
 sim::QposTrajectory trajectory_for(const std::shared_ptr<const sim::Humanoid>& h, const OneArgs& a) {
-  if (a.bvh.empty()) throw Error("--bvh is required");
+  if (a.bvh.empty() == a.qpos.empty()) throw Error("give exactly one of --bvh FILE or --qpos FILE.json");
+  if (!a.qpos.empty()) {  // a state sequence (e.g. from track-pd --export-dir): used as it is
+    sim::QposTrajectory q = sim::load_trajectory_json(*h, a.qpos);
+    if (a.max_frames > 0 && q.frames > a.max_frames) {
+      q.frames = a.max_frames;
+      q.qpos.resize((size_t)q.frames * q.nq);
+      q.qvel.resize((size_t)q.frames * q.nv);
+    }
+    return q;
+  }
   sim::QposTrajectory q = sim::retarget(*h, load_motion(a.bvh));
   if (a.max_frames > 0 && q.frames > a.max_frames) {
     q.frames = a.max_frames;
@@ -274,7 +287,7 @@ void run_export(const OneArgs& a) {
   auto h = sim::Humanoid::create();
   const sim::QposTrajectory q = trajectory_for(h, a);
   sim::export_bvh_file(*h, q, a.out);
-  std::printf("wrote %s (%d frames, %s)\n", a.out.c_str(), q.frames, a.mode.c_str());
+  std::printf("wrote %s (%d frames, %s)\n", a.out.c_str(), q.frames, a.qpos.empty() ? a.mode.c_str() : "qpos");
 }
 
 void run_render(const OneArgs& a) {
@@ -293,8 +306,10 @@ void run_render(const OneArgs& a) {
 
 void add_one_options(CLI::App* c, OneArgs& a, const char* mode) {
   a.mode = mode;
-  c->add_option("--bvh", a.bvh, "input BVH clip")->required();
-  c->add_option("--mode", a.mode, "replay (kinematic) or pd (simulate the PD tracker)")->capture_default_str();
+  c->add_option("--bvh", a.bvh, "input BVH clip");
+  c->add_option("--qpos", a.qpos, "input state sequence (t2m-qpos-1 JSON), used as it is (--mode ignored)");
+  c->add_option("--mode", a.mode, "for --bvh: replay (kinematic) or pd (simulate the PD tracker)")
+      ->capture_default_str();
   c->add_option("--assist", a.assist, "upward assist force on the root in N (pd mode; default 0 = none)");
   c->add_option("--max-frames", a.max_frames, "use at most N frames (0 = all)");
 }
@@ -310,7 +325,7 @@ void add_sim_commands(CLI::App& app) {
   add_clip_options(p, pd.clips, "test");
   p->add_option("--assist", pd.assist, "upward assist force on the root, N (default 0: no assist)");
   p->add_flag("--no-ff", pd.no_ff, "disable the velocity feed-forward");
-  p->add_option("--export-dir", pd.export_dir, "write the simulated motion of every clip as BVH here");
+  p->add_option("--export-dir", pd.export_dir, "write the simulated motion of every clip here (NAME.bvh and NAME.qpos.json)");
   p->callback([] { run_track_pd(pd); });
 
   static OneArgs ex;
