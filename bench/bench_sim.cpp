@@ -8,7 +8,7 @@
 // Args: {threads, variant}; variant 0 = ours (Euler, Newton 8 iterations, body-floor contacts only),
 // 1 = implicit integrator, 2 = + self collision, 3 = 100 solver iterations (MuJoCo's default).
 #include <benchmark/benchmark.h>
-#include <omp.h>
+
 
 #include <algorithm>
 #include <cmath>
@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "sim/env.h"
+#include "tensor/parallel.h"
 
 using namespace t2m::sim;
 
@@ -39,7 +40,7 @@ static void BM_HumanoidControlStep(benchmark::State& state) {
   // Action that holds the reference pose (hinge angle 0) per actuator.
   std::vector<float> hold(A);
   for (int k = 0; k < A; ++k) hold[k] = (float)venv.env(0).ctrl_to_action(k, 0.0);
-  omp_set_num_threads(threads);
+  t2m::set_num_threads(threads);
   long steps = 0, t = 0;
   for (int i = 0; i < N; ++i) venv.env(i).reset(nullptr, nullptr, nullptr);
   const double cpu0 = process_cpu_s();

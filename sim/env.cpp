@@ -6,6 +6,7 @@
 #include <string>
 
 #include "sim/observation.h"
+#include "tensor/parallel.h"
 #include "tensor/tensor.h"
 
 namespace t2m::sim {
@@ -104,7 +105,8 @@ void VecEnv::step(const float* actions, float* obs) {
     if (!std::isfinite(actions[i]))
       throw Error("VecEnv::step: action[" + std::to_string(i / A) + ", " + std::to_string(i % A) +
                   "] is not finite");
-#pragma omp parallel for schedule(static)
+  const int threads = std::max(1, std::min(N, get_num_threads()));  // the process-wide policy (tensor/parallel.h)
+#pragma omp parallel for schedule(static) num_threads(threads)
   for (int i = 0; i < N; ++i) envs_[i]->step(actions + (size_t)i * A, obs ? obs + (size_t)i * D : nullptr);
 }
 

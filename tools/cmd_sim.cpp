@@ -8,7 +8,7 @@
 // ~/.cache/t2m/bandai), filtered by --split (ignored for explicit --bvh files) (all | train | val | test: models/data/splits; take0: takes ending
 // in 0) and --max-clips. Clips run in parallel (OpenMP, --threads). Every run prints a summary and, with --out,
 // writes a JSON summary with per-clip numbers.
-#include <omp.h>
+
 
 #include <algorithm>
 #include <chrono>
@@ -30,6 +30,7 @@
 #include "sim/render.h"
 #include "sim/retarget.h"
 #include "sim/skeleton.h"
+#include "tensor/parallel.h"
 #include "tensor/tensor.h"
 #include "tools/command.h"
 
@@ -134,7 +135,7 @@ sim::Motion load_motion(const std::string& path) { return sim::motion_from_bvh(s
 // ---- t2m retarget ----
 void run_retarget(const ClipArgs& a) {
   const auto clips = select_clips(a);
-  if (a.threads > 0) omp_set_num_threads(a.threads);
+  if (a.threads > 0) t2m::set_num_threads(a.threads);
   auto h = sim::Humanoid::create();
   const int N = (int)clips.size();
   std::vector<json> rows(N);
@@ -187,7 +188,7 @@ struct PdArgs {
 
 void run_track_pd(const PdArgs& a) {
   const auto clips = select_clips(a.clips);
-  if (a.clips.threads > 0) omp_set_num_threads(a.clips.threads);
+  if (a.clips.threads > 0) t2m::set_num_threads(a.clips.threads);
   auto h = sim::Humanoid::create();
   if (!a.export_dir.empty()) fs::create_directories(a.export_dir);
   const int N = (int)clips.size();
