@@ -171,7 +171,7 @@ void run_retarget(const ClipArgs& a) {
             {"frame_weighted_mean_m", fsum > 0 ? wsum / fsum : 0.0},
             {"worst_joint_error_m", worst},
             {"clips_over_2cm_mean", over2}};
-  std::printf("retarget: %d/%d clips, mean joint error %.2f mm (frame-weighted %.2f mm), worst single joint %.1f mm, "
+  std::printf("retarget: %d/%d clips, mean joint error %.4f mm (frame-weighted %.4f mm), worst single joint %.1f mm, "
               "%d clips above 2 cm mean\n",
               ok, N, 1e3 * s["mean_of_clip_means_m"].get<double>(), 1e3 * s["frame_weighted_mean_m"].get<double>(),
               1e3 * worst, over2);
