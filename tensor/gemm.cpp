@@ -273,7 +273,9 @@ void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
           uk.pack_a(g.ta, mc, kc, g.a_at(ic, pc), g.lda, ap);
           macro_kernel(uk, mc, nc, kc, ap, bp, g.C + ic * g.ldc + jc, g.ldc, g.alpha, beta);
         }
-        if (split_m) {
+        // The shared B block is re-packed next round: wait until everyone is done with it (the region's closing
+        // barrier covers the last round).
+        if (split_m && (jc + nc < n1 || pc + kc < g.K)) {
 #pragma omp barrier
         }
       }
