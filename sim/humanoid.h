@@ -16,7 +16,7 @@
 // Newton solver. Contacts: only body–floor (every body geom has contype 1 / conaffinity 0, the floor 1 / 1), no
 // self collision; feet and toes are boxes with flat soles. Position actuators: ctrlrange = the hinge range,
 // force = kp (ctrl - q), plus joint damping kd = kp / 10 (the D term); forcerange = ±kp * 1 rad.
-// Masses from geom volumes at density 1000 kg/m^3 (total ≈ humanoid_total_mass()).
+// Masses from geom volumes at density 1000 kg/m^3 (58.6 kg in total, see model_total_mass()).
 #pragma once
 #include <mujoco/mujoco.h>
 
