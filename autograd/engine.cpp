@@ -1,14 +1,13 @@
 // engine.cpp — Variable::backward: reverse-topological walk of the tape with gradient accumulation.
 //
-// 1. Iterative depth-first search from the root collects every VariableImpl reachable through grad_fn inputs in
-//    post-order (inputs before the variables made from them); reversing it gives a topological order.
-// 2. Walking that order, each variable's incoming gradients have all been summed before its node runs.
-//    Leaves accumulate into .grad; non-leaves keep it only if they retain_grad().
+// 1. Iterative depth-first search from the root's node collects every Node reachable through input edges in
+//    post-order (producers before consumers); reversing it gives a topological order.
+// 2. Walking that order, each node's output gradient has been fully summed before the node runs. Gradients for
+//    leaf inputs go straight into the leaf's .grad; non-leaves keep theirs only if they retain_grad().
 // 3. Without retain_graph each node releases its saved tensors right after running.
+#include <cmath>
 #include <unordered_map>
 #include <unordered_set>
-
-#include <cmath>
 
 #include "autograd/anomaly.h"
 #include "autograd/variable.h"
@@ -36,20 +35,19 @@ bool all_finite(const Tensor& g) {
   return std::isfinite(t2m::sum(t2m::mul(g, 0.0)).item());
 }
 
-std::vector<VariableImpl*> post_order(VariableImpl* root) {
-  std::vector<VariableImpl*> order;
-  std::unordered_set<VariableImpl*> seen{root};
-  std::vector<std::pair<VariableImpl*, size_t>> stack{{root, 0}};
+std::vector<Node*> post_order(Node* root) {
+  std::vector<Node*> order;
+  std::unordered_set<Node*> seen{root};
+  std::vector<std::pair<Node*, size_t>> stack{{root, 0}};
   while (!stack.empty()) {
-    VariableImpl* v = stack.back().first;
+    Node* n = stack.back().first;
     size_t i = stack.back().second;
-    Node* n = v->grad_fn.get();
-    if (n && i < n->inputs.size()) {
+    if (i < n->inputs.size()) {
       stack.back().second = i + 1;
-      VariableImpl* in = n->inputs[i].get();
+      Node* in = n->inputs[i].fn.get();
       if (in && seen.insert(in).second) stack.push_back({in, 0});
     } else {
-      order.push_back(v);
+      order.push_back(n);
       stack.pop_back();
     }
   }
@@ -78,20 +76,19 @@ void Variable::backward(const Tensor& seed, bool retain_graph) const {
     g0 = seed;
   }
 
-  std::vector<VariableImpl*> order = post_order(root);
-  std::unordered_map<VariableImpl*, Tensor> grads;
-  grads[root] = g0;
+  if (!root->grad_fn) {  // a leaf: its gradient is the seed
+    accumulate_into(root->grad, g0);
+    return;
+  }
+  std::vector<Node*> order = post_order(root->grad_fn.get());
+  std::unordered_map<Node*, Tensor> grads;  // gradient of each node's output, summed over its consumers
+  grads[root->grad_fn.get()] = g0;
   for (auto it = order.rbegin(); it != order.rend(); ++it) {
-    VariableImpl* v = *it;
+    Node* n = *it;
     Tensor g;
-    if (auto gi = grads.find(v); gi != grads.end()) {
+    if (auto gi = grads.find(n); gi != grads.end()) {
       g = std::move(gi->second);
       grads.erase(gi);
-    }
-    Node* n = v->grad_fn.get();
-    if (!n) {
-      if (g.defined() && v->requires_grad) accumulate_into(v->grad, g);
-      continue;
     }
     if (!g.defined()) {
       if (!retain_graph) n->release();
@@ -100,9 +97,9 @@ void Variable::backward(const Tensor& seed, bool retain_graph) const {
     if (n->released || !n->backward)
       throw Error("backward: graph already freed at op '" + n->op +
                   "'; pass retain_graph=true to the first backward() to run backward through it again");
-    if (v->retains_grad) accumulate_into(v->grad, g);
+    if (auto out = n->output.lock(); out && out->retains_grad) accumulate_into(out->grad, g);
     std::vector<bool> need(n->inputs.size());
-    for (size_t i = 0; i < need.size(); ++i) need[i] = n->inputs[i] != nullptr;
+    for (size_t i = 0; i < need.size(); ++i) need[i] = n->inputs[i].defined();
     std::vector<Tensor> gin;
     try {
       gin = n->backward(g, need);
@@ -114,19 +111,23 @@ void Variable::backward(const Tensor& seed, bool retain_graph) const {
       throw Error("backward: op '" + n->op + "' returned " + std::to_string(gin.size()) + " gradients for " +
                   std::to_string(n->inputs.size()) + " inputs");
     for (size_t i = 0; i < gin.size(); ++i) {
-      VariableImpl* in = n->inputs[i].get();
-      if (!in || !gin[i].defined()) continue;
+      const Edge& e = n->inputs[i];
+      if (!e.defined() || !gin[i].defined()) continue;
       if (gin[i].shape() != n->input_shapes[i])
         throw Error("backward: op '" + n->op + "' gave a gradient of shape " + shape_str(gin[i].shape()) +
                     " for input " + std::to_string(i) + " of shape " + shape_str(n->input_shapes[i]));
-      if (gin[i].dtype() != in->data.dtype())
+      if (gin[i].dtype() != n->input_dtypes[i])
         throw Error("backward: op '" + n->op + "' gave a " + dtype_name(gin[i].dtype()) + " gradient for " +
-                    dtype_name(in->data.dtype()) + " input " + std::to_string(i));
+                    dtype_name(n->input_dtypes[i]) + " input " + std::to_string(i));
       if (AnomalyMode::is_enabled() && !all_finite(gin[i]))
         throw Error("backward: op '" + n->op + "' produced a non-finite gradient for input " + std::to_string(i) +
                     " of shape " + shape_str(n->input_shapes[i]));
-      Tensor& slot = grads[in];
-      slot = slot.defined() ? add(slot, gin[i]) : std::move(gin[i]);
+      if (e.leaf) {
+        accumulate_into(e.leaf->grad, gin[i]);
+      } else {
+        Tensor& slot = grads[e.fn.get()];
+        slot = slot.defined() ? add(slot, gin[i]) : std::move(gin[i]);
+      }
     }
   }
 }

@@ -11,16 +11,13 @@ void Node::release() {
   released = true;
 }
 
-// The default destructor would recurse Node -> VariableImpl -> Node ... once per op of a chain and overflow the
-// stack on deep graphs. Instead, inputs whose last owner is this node hand their grad_fn to an explicit stack.
+// The default destructor would recurse Node -> Node -> ... once per op of a chain and overflow the stack on deep
+// graphs. Instead, input nodes whose last owner is this node are moved to an explicit stack and freed one by one.
 Node::~Node() {
   std::vector<std::shared_ptr<Node>> pending;
   auto detach_inputs = [&pending](Node& n) {
-    for (auto& in : n.inputs) {
-      if (in && in.use_count() == 1 && in->grad_fn && in->grad_fn.use_count() == 1) {
-        pending.push_back(std::move(in->grad_fn));
-      }
-    }
+    for (auto& e : n.inputs)
+      if (e.fn && e.fn.use_count() == 1) pending.push_back(std::move(e.fn));
     n.inputs.clear();
   };
   detach_inputs(*this);
@@ -45,9 +42,16 @@ Variable record(const char* op, Tensor out, const std::vector<Variable>& inputs,
   node->op = op;
   node->inputs.reserve(inputs.size());
   node->input_shapes.reserve(inputs.size());
+  node->input_dtypes.reserve(inputs.size());
   for (const auto& v : inputs) {
-    node->inputs.push_back(v.requires_grad() ? v.impl() : nullptr);
+    Edge e;
+    if (v.requires_grad()) {
+      if (v.grad_fn()) e.fn = v.grad_fn();
+      else e.leaf = v.impl();
+    }
+    node->inputs.push_back(std::move(e));
     node->input_shapes.push_back(v.shape());
+    node->input_dtypes.push_back(v.dtype());
   }
   node->backward = std::move(backward);
   return Variable::from_node(std::move(out), std::move(node));

@@ -1,9 +1,11 @@
 // node.h — one recorded operation of the tape: its inputs and the backward function that maps the gradient of
 // its output to gradients of its inputs (llm.c-style: the closure holds the tensors the forward saved).
 //
-// Ownership: a Variable produced by an op owns its Node (grad_fn); the Node owns its input Variables' state, so
-// a graph lives exactly as long as some output refers to it. There are no cycles. Destroying a long chain is
-// iterative (no recursion), so graphs of any depth can be freed.
+// Ownership (as in PyTorch): a Variable produced by an op owns its Node (grad_fn); a Node owns the Nodes that
+// produced its inputs and the leaf inputs that require grad, but NOT the values of intermediate inputs, so an
+// activation no op saved for backward is freed as soon as the caller drops it. There are no cycles (a node sees
+// its own output only through a weak pointer, for retain_grad). Destroying a long chain is iterative (no
+// recursion), so graphs of any depth can be freed.
 #pragma once
 #include <functional>
 #include <memory>
@@ -15,18 +17,29 @@
 namespace t2m::ag {
 
 struct VariableImpl;
+struct Node;
 class Variable;
 
 // grad_out has the output's shape and dtype. Returns one tensor per input: that input's gradient (same shape as
 // the input; any strides) or an undefined Tensor when need[i] is false or no gradient flows to input i.
 using BackwardFn = std::function<std::vector<Tensor>(const Tensor& grad_out, const std::vector<bool>& need)>;
 
+// Where the gradient of one input goes: the node that produced it (non-leaf), or the leaf itself.
+// Both empty for an input that does not require grad.
+struct Edge {
+  std::shared_ptr<Node> fn;
+  std::shared_ptr<VariableImpl> leaf;
+  bool defined() const { return fn != nullptr || leaf != nullptr; }
+};
+
 struct Node {
-  std::string op;                                      // op name for error messages ("mul", "matmul", ...)
-  std::vector<std::shared_ptr<VariableImpl>> inputs;  // nullptr for inputs that do not require grad
-  std::vector<Shape> input_shapes;                     // to check what backward returns
-  BackwardFn backward;                                 // empty once released
-  bool released = false;                               // saved tensors freed by a backward without retain_graph
+  std::string op;                       // op name for error messages ("mul", "matmul", ...)
+  std::vector<Edge> inputs;             // one per input of the op
+  std::vector<Shape> input_shapes;      // to check what backward returns
+  std::vector<DType> input_dtypes;
+  std::weak_ptr<VariableImpl> output;   // the Variable this node produced (for retain_grad)
+  BackwardFn backward;                  // empty once released
+  bool released = false;                // saved tensors freed by a backward without retain_graph
 
   // Frees the saved tensors (the closure); the graph structure stays so a second backward can say why it fails.
   void release();

@@ -17,6 +17,7 @@ Variable Variable::parameter(Tensor data, std::string name) { return Variable(st
 Variable Variable::from_node(Tensor data, std::shared_ptr<Node> node) {
   Variable v(std::move(data));
   v.impl_->requires_grad = true;
+  node->output = v.impl_;
   v.impl_->grad_fn = std::move(node);
   return v;
 }

@@ -162,6 +162,33 @@ TEST(AutogradEngine, DeepChainDoesNotOverflowTheStack) {
   SUCCEED();
 }
 
+TEST(AutogradEngine, GraphDoesNotKeepUnsavedIntermediatesAlive) {
+  // h = x * 2 is consumed only by ops that save nothing (add_scalar, sum): once the caller drops h, its memory is
+  // freed although the graph through it lives on.
+  Variable x = Variable::parameter(vec({1, 2, 3}));
+  Variable h = x * 2.0;
+  std::weak_ptr<Storage> h_mem = h.data().storage();
+  Variable y = ag::sum(h + 1.0);
+  h = Variable();
+  EXPECT_TRUE(h_mem.expired());
+  y.backward();
+  EXPECT_EQ(values(x.grad()), (std::vector<double>{2, 2, 2}));
+  // An input an op saves stays alive until backward releases it.
+  Variable e = ag::exp(x);  // exp saves its output
+  std::weak_ptr<Storage> e_mem = e.data().storage();
+  Variable z = ag::sum(ag::exp(e));  // the outer exp saves its own output, not e; sum saves nothing
+  e = Variable();
+  EXPECT_FALSE(e_mem.expired()) << "the inner exp saved its output for backward";
+  z.backward();
+  EXPECT_TRUE(e_mem.expired()) << "backward without retain_graph frees saved tensors";
+}
+
+TEST(AutogradEngine, BackwardFromALeaf) {
+  Variable x = Variable::parameter(vec({1, 2}));
+  x.backward(vec({3, 4}));
+  EXPECT_EQ(values(x.grad()), (std::vector<double>{3, 4}));
+}
+
 TEST(AutogradEngine, NonLeafGradOnlyWithRetainGrad) {
   Variable x = Variable::parameter(vec({1, 2}));
   Variable h = x * 3.0;
