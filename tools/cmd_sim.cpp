@@ -182,6 +182,7 @@ void run_retarget(const ClipArgs& a) {
 struct PdArgs {
   ClipArgs clips;
   double assist = 0;
+  double gain_scale = 1;
   bool no_ff = false;
   std::string export_dir;
 };
@@ -189,7 +190,9 @@ struct PdArgs {
 void run_track_pd(const PdArgs& a) {
   const auto clips = select_clips(a.clips);
   if (a.clips.threads > 0) t2m::set_num_threads(a.clips.threads);
-  auto h = sim::Humanoid::create();
+  sim::HumanoidOptions ho;
+  ho.gain_scale = a.gain_scale;
+  auto h = sim::Humanoid::create(ho);
   if (!a.export_dir.empty()) fs::create_directories(a.export_dir);
   const int N = (int)clips.size();
   std::vector<json> rows(N);
@@ -240,11 +243,12 @@ void run_track_pd(const PdArgs& a) {
             {"root_drift_m", drift / dn},
             {"mean_fraction_of_frames_tracked", frac_ok / dn},
             {"assist_force_n", a.assist},
+            {"gain_scale", a.gain_scale},
             {"velocity_feedforward", !a.no_ff},
             {"control_steps_per_s", frames / std::max(secs, 1e-9)}};
-  std::printf("track-pd (%s, %d clips, assist %.0f N%s): success %.1f%%, fall %.1f%%, MPJPE %.1f mm, root drift "
+  std::printf("track-pd (%s, %d clips, assist %.0f N, gains x%g%s): success %.1f%%, fall %.1f%%, MPJPE %.1f mm, root drift "
               "%.2f m, frames tracked %.1f%%, %.0f control steps/s\n",
-              a.clips.bvh.empty() ? (a.clips.split + " split").c_str() : "given files", n, a.assist, a.no_ff ? ", no feed-forward" : "", 100 * succ / dn,
+              a.clips.bvh.empty() ? (a.clips.split + " split").c_str() : "given files", n, a.assist, a.gain_scale, a.no_ff ? ", no feed-forward" : "", 100 * succ / dn,
               100 * fell / dn, 1e3 * mpjpe / dn, drift / dn, 100 * frac_ok / dn, s["control_steps_per_s"].get<double>());
   write_json(a.clips.out, {{"command", "track-pd"}, {"split", a.clips.split}, {"summary", s}, {"clips", rows}});
 }
@@ -326,6 +330,8 @@ void add_sim_commands(CLI::App& app) {
   add_clip_options(p, pd.clips, "test");
   p->add_option("--assist", pd.assist, "upward assist force on the root, N (default 0: no assist)");
   p->add_flag("--no-ff", pd.no_ff, "disable the velocity feed-forward");
+  p->add_option("--gain-scale", pd.gain_scale, "multiply every PD gain (kp and kd) by this factor")
+      ->capture_default_str();
   p->add_option("--export-dir", pd.export_dir, "write the simulated motion of every clip here (NAME.bvh and NAME.qpos.json)");
   p->callback([] { run_track_pd(pd); });
 
