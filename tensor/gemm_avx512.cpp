@@ -93,12 +93,62 @@ void kernel_f64(int64_t kc, const double* ap, const double* bp, double* c, int64
   }
 }
 
+// GCC 12 flags the _mm512_undefined_ps() placeholder inside the unpack/shuffle intrinsics as maybe-uninitialized
+// once they are inlined here (a false positive); silence it for the transposing packer only.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+// In-register transpose of a 16×16 float block: r[i] holds row i on entry, column i on exit.
+inline void transpose16x16(__m512 r[16]) {
+  __m512 t[16];
+  for (int i = 0; i < 16; i += 2) {  // interleave 32-bit elements of row pairs
+    t[i] = _mm512_unpacklo_ps(r[i], r[i + 1]);
+    t[i + 1] = _mm512_unpackhi_ps(r[i], r[i + 1]);
+  }
+  for (int i = 0; i < 16; i += 4) {  // interleave 64-bit pairs
+    const __m512d a = _mm512_castps_pd(t[i]), b = _mm512_castps_pd(t[i + 1]);
+    const __m512d c = _mm512_castps_pd(t[i + 2]), d = _mm512_castps_pd(t[i + 3]);
+    r[i + 0] = _mm512_castpd_ps(_mm512_unpacklo_pd(a, c));
+    r[i + 1] = _mm512_castpd_ps(_mm512_unpackhi_pd(a, c));
+    r[i + 2] = _mm512_castpd_ps(_mm512_unpacklo_pd(b, d));
+    r[i + 3] = _mm512_castpd_ps(_mm512_unpackhi_pd(b, d));
+  }
+  for (int h = 0; h < 16; h += 8)  // gather 128-bit lanes, 4 rows apart
+    for (int i = 0; i < 4; ++i) {
+      t[h + i] = _mm512_shuffle_f32x4(r[h + i], r[h + i + 4], 0x88);
+      t[h + i + 4] = _mm512_shuffle_f32x4(r[h + i], r[h + i + 4], 0xdd);
+    }
+  for (int i = 0; i < 8; ++i) {  // and 8 rows apart
+    r[i] = _mm512_shuffle_f32x4(t[i], t[i + 8], 0x88);
+    r[i + 8] = _mm512_shuffle_f32x4(t[i], t[i + 8], 0xdd);
+  }
+}
+
 void pack_a_f32(bool trans, int64_t mc, int64_t kc, const float* a, int64_t lda, float* ap) {
   pack_a_panels<float, kMrF>(trans, mc, kc, a, lda, ap);
 }
+// op(B) = B^T (the forward of a linear layer, x W^T): full 32-row panels go through 16×16 register transposes;
+// the rest (k tail, partial panel) through the generic packer.
 void pack_b_f32(bool trans, int64_t kc, int64_t nc, const float* b, int64_t ldb, float* bp) {
-  pack_b_panels<float, kNrF>(trans, kc, nc, b, ldb, bp);
+  if (!trans) return pack_b_panels<float, kNrF>(false, kc, nc, b, ldb, bp);
+  for (int64_t j0 = 0; j0 < nc; j0 += kNrF, bp += kc * kNrF) {
+    const float* src = b + j0 * ldb;
+    if (nc - j0 < kNrF) {
+      pack_b_panels<float, kNrF>(true, kc, nc - j0, src, ldb, bp);
+      continue;
+    }
+    int64_t k = 0;
+    for (; k + 16 <= kc; k += 16)
+      for (int h = 0; h < kNrF; h += 16) {
+        __m512 r[16];
+        for (int i = 0; i < 16; ++i) r[i] = _mm512_loadu_ps(src + (h + i) * ldb + k);
+        transpose16x16(r);
+        for (int i = 0; i < 16; ++i) _mm512_store_ps(bp + (k + i) * kNrF + h, r[i]);
+      }
+    for (; k < kc; ++k)
+      for (int j = 0; j < kNrF; ++j) bp[k * kNrF + j] = src[j * ldb + k];
+  }
 }
+#pragma GCC diagnostic pop
 void pack_a_f64(bool trans, int64_t mc, int64_t kc, const double* a, int64_t lda, double* ap) {
   pack_a_panels<double, kMrD>(trans, mc, kc, a, lda, ap);
 }
