@@ -181,12 +181,45 @@ TEST(UpsampleNearest1d, ForwardBackward) {
   for (int64_t n = 0; n < N; ++n)
     for (int64_t t = 0; t < T * s; ++t) EXPECT_EQ(y[n * T * s + t], x[n * T + t / s]);
   upsample_nearest1d_backward<double>(dx.data(), R.data(), N, T, s);
-  expect_close(dx,
-               numeric_grad(x, [&]() { upsample_nearest1d_forward<double>(y.data(), x.data(), N, T, s); return dot(y, R); }),
-               1e-8, 1e-7, "upsample backward");
+  auto loss = [&]() {
+    upsample_nearest1d_forward<double>(y.data(), x.data(), N, T, s);
+    return dot(y, R);
+  };
+  expect_close(dx, numeric_grad(x, loss), 1e-8, 1e-7, "upsample backward");
   Vec y3(N * T * 3);
   upsample_nearest1d_forward<double>(y3.data(), x.data(), N, T, 3);
   EXPECT_EQ(y3[3 * 3 + 2], x[3]);
+}
+
+// Row-wise and elementwise kernels do the same arithmetic per element whichever thread runs it: sizes above the
+// parallel grain give bitwise the same result at 1 and 2 threads.
+TEST(FusedPointwiseThreads, ParallelPathsEqualSerialBitwise) {
+  const int saved = t2m::get_num_threads();
+  const int64_t N = 300, C = 257, T = 40, d = 64, up = 3;
+  const auto x = to_float(randn(N * C, 171, 2.0)), R = to_float(randn(N * C, 172));
+  std::vector<float> cs(T * d / 2), sn(T * d / 2);
+  rope_table<float>(cs.data(), sn.data(), T, d);
+  auto run = [&](int threads) {
+    t2m::set_num_threads(threads);
+    std::vector<float> sm(N * C), dsm(N * C), ls(N * C), dls(N * C), g(N * C), dg(N * C);
+    softmax_forward<float>(sm.data(), x.data(), N, C);
+    softmax_backward<float>(dsm.data(), R.data(), sm.data(), N, C);
+    log_softmax_forward<float>(ls.data(), x.data(), N, C);
+    log_softmax_backward<float>(dls.data(), R.data(), ls.data(), N, C);
+    gelu_tanh_forward<float>(g.data(), x.data(), N * C);
+    gelu_tanh_backward<float>(dg.data(), R.data(), x.data(), N * C);
+    const int64_t nr = (N * C) / (T * d);
+    std::vector<float> r(nr * T * d), u(N * C * up), du(N * C);
+    rope_forward<float>(r.data(), x.data(), cs.data(), sn.data(), nr, T, d);
+    upsample_nearest1d_forward<float>(u.data(), x.data(), N, C, up);
+    upsample_nearest1d_backward<float>(du.data(), u.data(), N, C, up);
+    std::vector<float> all;
+    for (auto* v : {&sm, &dsm, &ls, &dls, &g, &dg, &r, &u, &du}) all.insert(all.end(), v->begin(), v->end());
+    return all;
+  };
+  const auto one = run(1), two = run(2);
+  t2m::set_num_threads(saved);
+  EXPECT_TRUE(bitwise_equal(one, two));
 }
 
 TEST(FusedPointwiseErrors, BadArgumentsThrow) {

@@ -26,17 +26,17 @@ void adamw_range(float* __restrict p, const float* __restrict g, float* __restri
   const __m256 vb1 = _mm256_set1_ps(c.b1), vb2 = _mm256_set1_ps(c.b2), vomb1 = _mm256_set1_ps(omb1),
                vomb2 = _mm256_set1_ps(omb2), vibc1 = _mm256_set1_ps(ibc1), vibc2 = _mm256_set1_ps(ibc2),
                vlr = _mm256_set1_ps(c.lr), veps = _mm256_set1_ps(c.eps), vdecay = _mm256_set1_ps(c.decay);
-  // Full blocks unmasked; the tail runs the same vector code under a lane mask, so every element sees identical
-  // arithmetic wherever the thread and tensor boundaries fall (a scalar tail could be FMA-contracted differently).
+  // Full blocks unmasked; the tail runs the same vector code under a lane mask. Explicit FMAs leave the compiler no
+  // contraction choice, so every element sees identical arithmetic wherever thread and tensor boundaries fall.
   auto block = [&](float* pp, const float* gg, float* mm, float* vv, auto load, auto store) {
     const __m256 gi = load(gg);
-    const __m256 mi = _mm256_add_ps(_mm256_mul_ps(vb1, load(mm)), _mm256_mul_ps(vomb1, gi));
-    const __m256 vi = _mm256_add_ps(_mm256_mul_ps(vb2, load(vv)), _mm256_mul_ps(_mm256_mul_ps(vomb2, gi), gi));
+    const __m256 mi = _mm256_fmadd_ps(vb1, load(mm), _mm256_mul_ps(vomb1, gi));
+    const __m256 vi = _mm256_fmadd_ps(vb2, load(vv), _mm256_mul_ps(_mm256_mul_ps(vomb2, gi), gi));
     store(mm, mi);
     store(vv, vi);
     const __m256 den = _mm256_add_ps(_mm256_sqrt_ps(_mm256_mul_ps(vi, vibc2)), veps);
     const __m256 upd = _mm256_div_ps(_mm256_mul_ps(vlr, _mm256_mul_ps(mi, vibc1)), den);
-    store(pp, _mm256_sub_ps(_mm256_mul_ps(load(pp), vdecay), upd));
+    store(pp, _mm256_fmsub_ps(load(pp), vdecay, upd));
   };
   auto load = [](const float* x) { return _mm256_loadu_ps(x); };
   auto store = [](float* x, __m256 y) { _mm256_storeu_ps(x, y); };
