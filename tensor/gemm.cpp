@@ -324,7 +324,7 @@ void gemm_batch(bool ta, bool tb, int64_t batch, int64_t M, int64_t N, int64_t K
   // Small matrices and enough of them: one whole GEMM per thread. stride_c == 0 (every product accumulates
   // into the same C) stays sequential.
   if (nt > 1 && batch >= nt && per < (int64_t(1) << 21) && sc != 0) {
-    select_kernel<T>();
+    select_kernel<T>();  // initialise the CPU-feature statics before the threads start
 #pragma omp parallel for schedule(static) num_threads(nt)
     for (int64_t b = 0; b < batch; ++b) gemm_run(at(b), 1);
     return;
