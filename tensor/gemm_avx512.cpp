@@ -123,9 +123,6 @@ inline void transpose16x16(__m512 r[16]) {
   }
 }
 
-void pack_a_f32(bool trans, int64_t mc, int64_t kc, const float* a, int64_t lda, float* ap) {
-  pack_a_panels<float, kMrF>(trans, mc, kc, a, lda, ap);
-}
 // op(B) = B^T (the forward of a linear layer, x W^T): full 32-row panels go through 16×16 register transposes;
 // the rest (k tail, partial panel) through the generic packer.
 void pack_b_f32(bool trans, int64_t kc, int64_t nc, const float* b, int64_t ldb, float* bp) {
@@ -148,7 +145,34 @@ void pack_b_f32(bool trans, int64_t kc, int64_t nc, const float* b, int64_t ldb,
       for (int j = 0; j < kNrF; ++j) bp[k * kNrF + j] = src[j * ldb + k];
   }
 }
+
+// op(A) = A (row-major, the usual case): each full 12-row panel goes through 16×16 register transposes (rows 12..15
+// zero) and 12-lane masked stores; with N as small as 256 the packing of A is otherwise ~10% of the time.
+void pack_a_f32(bool trans, int64_t mc, int64_t kc, const float* a, int64_t lda, float* ap) {
+  if (trans) return pack_a_panels<float, kMrF>(true, mc, kc, a, lda, ap);
+  static_assert(kMrF <= 16, "one zmm holds a packed column of A");
+  constexpr __mmask16 kRows = __mmask16((1u << kMrF) - 1);
+  for (int64_t i0 = 0; i0 < mc; i0 += kMrF, ap += kc * kMrF) {
+    const float* src = a + i0 * lda;
+    if (mc - i0 < kMrF) {
+      pack_a_panels<float, kMrF>(false, mc - i0, kc, src, lda, ap);
+      continue;
+    }
+    int64_t k = 0;
+    for (; k + 16 <= kc; k += 16) {
+      __m512 r[16];
+      for (int i = 0; i < kMrF; ++i) r[i] = _mm512_loadu_ps(src + i * lda + k);
+      for (int i = kMrF; i < 16; ++i) r[i] = _mm512_setzero_ps();
+      transpose16x16(r);
+      for (int i = 0; i < 16; ++i) _mm512_mask_storeu_ps(ap + (k + i) * kMrF, kRows, r[i]);
+    }
+    for (; k < kc; ++k)
+      for (int i = 0; i < kMrF; ++i) ap[k * kMrF + i] = src[i * lda + k];
+  }
+}
+
 #pragma GCC diagnostic pop
+
 void pack_a_f64(bool trans, int64_t mc, int64_t kc, const double* a, int64_t lda, double* ap) {
   pack_a_panels<double, kMrD>(trans, mc, kc, a, lda, ap);
 }
