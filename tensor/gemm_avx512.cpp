@@ -94,9 +94,11 @@ void kernel_f64(int64_t kc, const double* ap, const double* bp, double* c, int64
 }
 
 // GCC 12 flags the _mm512_undefined_ps() placeholder inside the unpack/shuffle intrinsics as maybe-uninitialized
-// once they are inlined here (a false positive); silence it for the transposing packer only.
+// once they are inlined here (a false positive; -Wuninitialized in the -O2 sanitizer build); silence it for the
+// transposing packers only.
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#pragma GCC diagnostic ignored "-Wuninitialized"
 // In-register transpose of a 16×16 float block: r[i] holds row i on entry, column i on exit.
 inline void transpose16x16(__m512 r[16]) {
   __m512 t[16];
