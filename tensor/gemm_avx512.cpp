@@ -96,9 +96,11 @@ void kernel_f64(int64_t kc, const double* ap, const double* bp, double* c, int64
 // GCC 12 flags the _mm512_undefined_ps() placeholder inside the unpack/shuffle intrinsics as maybe-uninitialized
 // once they are inlined here (a false positive; -Wuninitialized in the -O2 sanitizer build); silence it for the
 // transposing packers only.
+#if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #pragma GCC diagnostic ignored "-Wuninitialized"
+#endif
 // In-register transpose of a 16×16 float block: r[i] holds row i on entry, column i on exit.
 inline void transpose16x16(__m512 r[16]) {
   __m512 t[16];
@@ -173,7 +175,9 @@ void pack_a_f32(bool trans, int64_t mc, int64_t kc, const float* a, int64_t lda,
   }
 }
 
+#if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic pop
+#endif
 
 void pack_a_f64(bool trans, int64_t mc, int64_t kc, const double* a, int64_t lda, double* ap) {
   pack_a_panels<double, kMrD>(trans, mc, kc, a, lda, ap);
