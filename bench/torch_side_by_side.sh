@@ -18,7 +18,7 @@ while [ $# -gt 0 ]; do
     --build-dir) BUILD_DIR="$2"; shift ;;
     --threads) THREADS="$2"; shift ;;
     --reps) REPS="$2"; shift ;;
-    -h|--help) sed -n 2,11p "$0"; exit 0 ;;
+    -h|--help) sed -n 2,10p "$0"; exit 0 ;;
     *) echo "torch_side_by_side.sh: unknown option '$1'" >&2; exit 2 ;;
   esac
   shift
