@@ -15,7 +15,7 @@ while [ $# -gt 0 ]; do
 done
 
 PKGS=(build-essential cmake ninja-build pkg-config libeigen3-dev libcli11-dev googletest libgtest-dev libgmock-dev
-      libbenchmark-dev nlohmann-json3-dev libzstd-dev zstd libmujoco-dev libosmesa6-dev libegl-dev ffmpeg)
+      libbenchmark-dev nlohmann-json3-dev libzstd-dev zstd libmujoco-dev libqhull-dev libosmesa6-dev libegl-dev ffmpeg)
 missing=()
 for p in "${PKGS[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
@@ -29,6 +29,8 @@ fi
 
 JOBS=$(nproc)
 if [ ! -f "$BUILD_DIR/build.ninja" ]; then
-  cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=Release -DT2M_SANITIZE="$SANITIZE" >/dev/null
+  LAUNCHER=()
+  command -v ccache >/dev/null && LAUNCHER=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
+  cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=Release -DT2M_SANITIZE="$SANITIZE" "${LAUNCHER[@]}" >/dev/null
 fi
 cmake --build "$BUILD_DIR" -j "$JOBS"
