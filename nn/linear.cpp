@@ -1,0 +1,114 @@
+// linear.cpp — forward/backward of y = x W^T + b on raw GEMMs over the flattened leading dims.
+#include "nn/linear.h"
+
+#include <cmath>
+#include <cstring>
+#include <string>
+
+#include "autograd/node.h"
+#include "tensor/gemm.h"
+#include "tensor/ops.h"
+
+namespace t2m::nn {
+
+namespace {
+
+bool is_float(DType d) { return d == DType::f32 || d == DType::f64; }
+
+// x (N, in), w (out, in), b (out) or null -> y (N, out) = x w^T + b: rows of y start as b, the GEMM adds on.
+template <typename T>
+void linear_fwd(T* y, const T* x, const T* w, const T* b, int64_t N, int64_t in, int64_t out) {
+  if (b != nullptr)
+    for (int64_t n = 0; n < N; ++n) std::memcpy(y + n * out, b, (size_t)out * sizeof(T));
+  gemm(false, true, N, out, in, (T)1, x, in, w, in, b != nullptr ? (T)1 : (T)0, y, out);
+}
+
+// g (N, out), x (N, in), w (out, in). dx (N, in) = g w; dw (out, in) = g^T x; db (out) = sum_n g[n]. Null skips.
+template <typename T>
+void linear_bwd(T* dx, T* dw, T* db, const T* g, const T* x, const T* w, int64_t N, int64_t in, int64_t out) {
+  if (dx != nullptr) gemm(false, false, N, in, out, (T)1, g, out, w, in, (T)0, dx, in);
+  if (dw != nullptr) gemm(true, false, out, in, N, (T)1, g, out, x, in, (T)0, dw, in);
+  if (db != nullptr) {
+    for (int64_t j = 0; j < out; ++j) db[j] = 0;
+    for (int64_t n = 0; n < N; ++n) {
+      const T* gr = g + n * out;
+      for (int64_t j = 0; j < out; ++j) db[j] += gr[j];
+    }
+  }
+}
+
+template <typename T>
+T* ptr(Tensor& t) { return t.defined() ? t.data<T>() : nullptr; }
+template <typename T>
+const T* cptr(const Tensor& t) { return t.defined() ? t.data<T>() : nullptr; }
+
+}  // namespace
+
+// x (..., in), w (out, in), b (out) -> y (..., out).
+ag::Variable linear(const ag::Variable& x, const ag::Variable& weight, const ag::Variable& bias) {
+  auto fail = [&](const std::string& what) {
+    throw Error("linear: " + what + " (x " + shape_str(x.shape()) + ", weight " + shape_str(weight.shape()) +
+                (bias.defined() ? ", bias " + shape_str(bias.shape()) : "") + ")");
+  };
+  if (weight.dim() != 2) fail("weight must be 2-D (out, in)");
+  const int64_t out = weight.size(0), in = weight.size(1);
+  if (x.dim() < 1 || x.size(-1) != in) fail("x's last dim must equal in = " + std::to_string(in));
+  if (bias.defined() && (bias.dim() != 1 || bias.size(0) != out)) fail("bias must be (out)");
+  const DType dt = x.dtype();
+  if (!is_float(dt) || weight.dtype() != dt || (bias.defined() && bias.dtype() != dt))
+    fail(std::string("x, weight, bias must share a float dtype, got ") + dtype_name(dt) + " and " +
+         dtype_name(weight.dtype()));
+  const int64_t N = x.numel() / in;
+  const Tensor xc = x.data().contiguous(), wc = weight.data().contiguous();
+  const Tensor bc = bias.defined() ? bias.data().contiguous() : Tensor();
+  Shape oshape = x.shape();
+  oshape.back() = out;
+  Tensor y = Tensor::empty(oshape, dt);
+  if (N > 0) {
+    if (dt == DType::f32)
+      linear_fwd<float>(y.data<float>(), xc.data<float>(), wc.data<float>(), cptr<float>(bc), N, in, out);
+    else
+      linear_fwd<double>(y.data<double>(), xc.data<double>(), wc.data<double>(), cptr<double>(bc), N, in, out);
+  }
+  std::vector<ag::Variable> vars{x, weight};
+  if (bias.defined()) vars.push_back(bias);
+  // Save x only when W needs a gradient and W only when x does.
+  const Tensor sx = weight.requires_grad() ? xc : Tensor(), sw = x.requires_grad() ? wc : Tensor();
+  const bool has_bias = bias.defined();
+  return ag::record("linear", y, vars,
+                    [sx, sw, has_bias, N, in, out, dt, xshape = x.shape()](const Tensor& grad,
+                                                                           const std::vector<bool>& need) {
+                      const Tensor g = grad.contiguous();
+                      Tensor dx, dw, db;
+                      if (need[0]) dx = Tensor::empty(xshape, dt);
+                      if (need[1]) dw = Tensor::empty({out, in}, dt);
+                      if (has_bias && need[2]) db = Tensor::empty({out}, dt);
+                      if (N == 0) {
+                        if (dw.defined()) dw.zero_();
+                        if (db.defined()) db.zero_();
+                      } else if (dt == DType::f32) {
+                        linear_bwd<float>(ptr<float>(dx), ptr<float>(dw), ptr<float>(db), g.data<float>(),
+                                          cptr<float>(sx), cptr<float>(sw), N, in, out);
+                      } else {
+                        linear_bwd<double>(ptr<double>(dx), ptr<double>(dw), ptr<double>(db), g.data<double>(),
+                                           cptr<double>(sx), cptr<double>(sw), N, in, out);
+                      }
+                      std::vector<Tensor> r{dx, dw};
+                      if (has_bias) r.push_back(db);
+                      return r;
+                    });
+}
+
+Linear::Linear(int64_t in_features, int64_t out_features, bool bias, Generator& gen)
+    : in_(in_features), out_(out_features) {
+  if (in_ < 1 || out_ < 1)
+    throw Error("Linear: in and out must be >= 1, got in = " + std::to_string(in_) + ", out = " +
+                std::to_string(out_));
+  const double bound = 1.0 / std::sqrt((double)in_);
+  weight_ = register_parameter("weight", rand_uniform({out_, in_}, gen, -bound, bound));
+  if (bias) bias_ = register_parameter("bias", rand_uniform({out_}, gen, -bound, bound));
+}
+
+ag::Variable Linear::forward(const ag::Variable& x) const { return linear(x, weight_, bias_); }
+
+}  // namespace t2m::nn
