@@ -1,0 +1,94 @@
+// grad_utils.cpp — fixed-order double accumulation; scan for non-finite values.
+#include "nn/grad_utils.h"
+
+#include <cmath>
+#include <sstream>
+
+#include "tensor/ops.h"
+
+namespace t2m::nn {
+
+namespace {
+
+const Tensor* grad_ptr(const std::pair<std::string, ag::Variable>& kv, const char* op) {
+  const auto& impl = kv.second.impl();
+  if (!impl || !impl->grad.defined()) return nullptr;
+  const Tensor& g = impl->grad;
+  if (g.dtype() != DType::f32 && g.dtype() != DType::f64)
+    throw Error(std::string(op) + ": grad of '" + kv.first + "' has dtype " + dtype_name(g.dtype()));
+  return &g;
+}
+
+// Sum of squares in element order, four interleaved double accumulators (fixed order, so deterministic).
+template <typename T>
+double sum_sq(const T* x, int64_t n) {
+  double a[4] = {0, 0, 0, 0};
+  int64_t i = 0;
+  for (; i + 4 <= n; i += 4)
+    for (int k = 0; k < 4; ++k) a[k] += (double)x[i + k] * (double)x[i + k];
+  for (; i < n; ++i) a[0] += (double)x[i] * (double)x[i];
+  return (a[0] + a[1]) + (a[2] + a[3]);
+}
+
+template <typename T>
+void count_nonfinite(const T* x, int64_t n, int64_t& count, int64_t& first, double& first_val) {
+  for (int64_t i = 0; i < n; ++i)
+    if (!std::isfinite(x[i])) {
+      if (count == 0) { first = i; first_val = (double)x[i]; }
+      ++count;
+    }
+}
+
+}  // namespace
+
+double grad_norm(const NamedParams& params) {
+  double total = 0.0;
+  for (const auto& kv : params) {
+    const Tensor* g = grad_ptr(kv, "grad_norm");
+    if (!g) continue;
+    const Tensor c = g->contiguous();
+    total += c.dtype() == DType::f64 ? sum_sq(c.data<double>(), c.numel()) : sum_sq(c.data<float>(), c.numel());
+  }
+  return std::sqrt(total);
+}
+
+double clip_grad_norm(const NamedParams& params, double max_norm) {
+  if (!(max_norm > 0) || !std::isfinite(max_norm))
+    throw Error("clip_grad_norm: max_norm must be finite and > 0, got " + std::to_string(max_norm));
+  const double norm = grad_norm(params);
+  if (!std::isfinite(norm) || norm <= max_norm) return norm;
+  const double scale = max_norm / (norm + 1e-6);
+  for (const auto& kv : params) {
+    const Tensor* g = grad_ptr(kv, "clip_grad_norm");
+    if (!g) continue;
+    Tensor gt = *g;
+    mul_(gt, scale);
+  }
+  return norm;
+}
+
+void check_finite_grads(const NamedParams& params) {
+  int64_t affected = 0;
+  std::string first_msg;
+  for (const auto& kv : params) {
+    const Tensor* g = grad_ptr(kv, "check_finite_grads");
+    if (!g) continue;
+    const Tensor c = g->contiguous();
+    int64_t count = 0, first = -1;
+    double val = 0.0;
+    if (c.dtype() == DType::f64)
+      count_nonfinite(c.data<double>(), c.numel(), count, first, val);
+    else
+      count_nonfinite(c.data<float>(), c.numel(), count, first, val);
+    if (count == 0) continue;
+    if (affected++ == 0) {
+      std::ostringstream o;
+      o << "check_finite_grads: parameter '" << kv.first << "' " << shape_str(c.shape()) << " has " << count
+        << " non-finite gradient values of " << c.numel() << " (first at flat index " << first << ": " << val << ")";
+      first_msg = o.str();
+    }
+  }
+  if (affected) throw Error(first_msg + "; " + std::to_string(affected) + " parameter(s) affected");
+}
+
+}  // namespace t2m::nn
