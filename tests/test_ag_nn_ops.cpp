@@ -6,6 +6,10 @@
 #include <cmath>
 
 #include "autograd/gradcheck.h"
+#include "autograd/ops_activation.h"
+#include "autograd/ops_conv.h"
+#include "autograd/ops_elementwise.h"
+#include "autograd/ops_embedding.h"
 #include "autograd/ops_norm.h"
 #include "autograd/ops_reduce.h"
 #include "autograd/ops_shape.h"
@@ -92,6 +96,32 @@ Tensor naive_group_norm(const Tensor& x, int64_t G, const Tensor& w, const Tenso
 
 ag::Variable var_or_none(const Tensor& t) { return t.defined() ? ag::Variable(t) : ag::Variable(); }
 
+// x (B, Cin, T), w (Cout, Cin, K), b (Cout) or undefined; zero padding (left, right) or causal replicate-left.
+Tensor naive_conv1d(const Tensor& x, const Tensor& w, const Tensor& b, int64_t stride, int64_t dil,
+                    ag::Conv1dPadding pad) {
+  const int64_t B = x.size(0), Cin = x.size(1), T = x.size(2), Cout = w.size(0), K = w.size(2);
+  const bool causal = pad.mode == ag::Conv1dPadding::Mode::causal_replicate;
+  const int64_t L = causal ? (K - 1) * dil : pad.left, R = causal ? 0 : pad.right;
+  const int64_t To = (T + L + R - dil * (K - 1) - 1) / stride + 1;
+  Tensor out = Tensor::zeros({B, Cout, To}, DType::f64);
+  for (int64_t bi = 0; bi < B; ++bi)
+    for (int64_t co = 0; co < Cout; ++co)
+      for (int64_t to = 0; to < To; ++to) {
+        double acc = b.defined() ? b.at({co}) : 0.0;
+        for (int64_t ci = 0; ci < Cin; ++ci)
+          for (int64_t k = 0; k < K; ++k) {
+            int64_t t = to * stride - L + k * dil;
+            if (causal && t < 0) t = 0;
+            if (t < 0 || t >= T) continue;
+            acc += w.at({co, ci, k}) * x.at({bi, ci, t});
+          }
+        out.set({bi, co, to}, acc);
+      }
+  return out;
+}
+
+double gelu_ref(double x) { return 0.5 * x * (1.0 + std::tanh(std::sqrt(2.0 / M_PI) * (x + 0.044715 * x * x * x))); }
+
 }  // namespace
 
 // ---- norms ------------------------------------------------------------------------------------------------
@@ -177,4 +207,194 @@ TEST(AgNorm, BadUseThrows) {
                {"group_norm", "[6]"});
   expect_error([&] { ag::group_norm(ag::Variable(Tensor::zeros({2, 2, 2}, DType::i64)), 1, ag::Variable(), ag::Variable()); },
                {"group_norm", "i64"});
+}
+
+// ---- activations and dropout -------------------------------------------------------------------------------
+
+TEST(AgActivation, GeluTanhAndSiluMatchFormulas) {
+  const Tensor x = randn({3, 7}, 30);
+  Tensor g = ag::gelu_tanh(ag::Variable(x)).data(), s = ag::silu(ag::Variable(x)).data();
+  double eg = 0, es = 0;
+  for (int64_t i = 0; i < 3; ++i)
+    for (int64_t j = 0; j < 7; ++j) {
+      const double v = x.at({i, j});
+      eg = std::max(eg, std::fabs(g.at({i, j}) - gelu_ref(v)));
+      es = std::max(es, std::fabs(s.at({i, j}) - v / (1.0 + std::exp(-v))));
+    }
+  EXPECT_LT(eg, 1e-14);
+  EXPECT_LT(es, 1e-14);
+  // float32 (vectorised tanh) agrees with float64; large tensors take the threaded path.
+  const Tensor xl = randn({300, 300}, 31);
+  for (auto op : {&ag::gelu_tanh, &ag::silu}) {
+    Tensor y64 = op(ag::Variable(xl)).data();
+    Tensor y32 = op(ag::Variable(xl.to(DType::f32))).data();
+    EXPECT_LT(max_abs_diff(y32.to(DType::f64), y64), 1e-5);
+  }
+}
+
+TEST(AgActivation, Gradcheck) {
+  expect_gradcheck([](const std::vector<ag::Variable>& v) { return ag::gelu_tanh(v[0]); }, {randn({4, 5}, 32)});
+  expect_gradcheck([](const std::vector<ag::Variable>& v) { return ag::silu(v[0]); }, {randn({4, 5}, 33)});
+  expect_gradcheck([](const std::vector<ag::Variable>& v) { return ag::silu(ag::transpose(v[0], 0, 1)); },
+                   {randn({3, 4}, 34)});
+  expect_error([] { ag::silu(ag::Variable(Tensor::zeros({2}, DType::i64))); }, {"silu", "i64", "[2]"});
+  expect_error([] { ag::gelu_tanh(ag::Variable(Tensor::zeros({2}, DType::i64))); }, {"gelu_tanh", "i64"});
+}
+
+TEST(AgDropout, MaskIsPhiloxBernoulliScaledAndDeterministic) {
+  const Tensor x = randn({8, 50}, 35);
+  Generator g1(77), ref(77);
+  ag::Variable y = ag::dropout(ag::Variable(x), 0.3, g1, true);
+  const Tensor keep = rand_bernoulli({8, 50}, ref, 0.7, DType::f64);
+  EXPECT_EQ(g1.offset(), ref.offset());  // advances exactly like the mask draw
+  EXPECT_LT(max_abs_diff(y.data(), mul(mul(x, keep), 1.0 / 0.7)), 1e-15);
+  const double kept = sum(keep).item() / 400.0;
+  EXPECT_GT(kept, 0.6);
+  EXPECT_LT(kept, 0.8);
+  Generator g2(77), g3(78);
+  EXPECT_EQ(max_abs_diff(ag::dropout(ag::Variable(x), 0.3, g2, true).data(), y.data()), 0.0);
+  EXPECT_GT(max_abs_diff(ag::dropout(ag::Variable(x), 0.3, g3, true).data(), y.data()), 0.0);
+  // The next call continues the stream: a different mask.
+  EXPECT_GT(max_abs_diff(ag::dropout(ag::Variable(x), 0.3, g1, true).data(), y.data()), 0.0);
+}
+
+TEST(AgDropout, EvalIdentityGradientAndEdgeCases) {
+  ag::Variable x(randn({4, 6}, 36), true);
+  Generator g(5);
+  ag::Variable same = ag::dropout(x, 0.5, g, false);
+  EXPECT_EQ(same.impl(), x.impl());
+  EXPECT_EQ(g.offset(), 0u);
+  EXPECT_EQ(ag::dropout(x, 0.0, g, true).impl(), x.impl());
+  // Gradient = mask / (1 - p).
+  Generator gm(9), ref(9);
+  ag::sum(ag::dropout(x, 0.25, gm, true)).backward();
+  EXPECT_LT(max_abs_diff(x.grad(), mul(rand_bernoulli({4, 6}, ref, 0.75, DType::f64), 1.0 / 0.75)), 1e-15);
+  // p = 1 drops everything.
+  Generator g1(3);
+  EXPECT_EQ(amax(abs(ag::dropout(x, 1.0, g1, true).data())).item(), 0.0);
+  expect_gradcheck([](const std::vector<ag::Variable>& v) {
+    Generator gg(11);  // same mask for every evaluation
+    return ag::dropout(v[0], 0.4, gg, true);
+  }, {randn({3, 5}, 37)});
+  expect_error([&] { ag::dropout(x, 1.5, g, true); }, {"dropout", "1.5", "[4, 6]"});
+  expect_error([&] { ag::dropout(x, -0.1, g, false); }, {"dropout", "p must be"});
+}
+
+// ---- conv1d and upsampling ---------------------------------------------------------------------------------
+
+TEST(AgConv, MatchesNaiveAllPaddingModes) {
+  const Tensor x = randn({2, 3, 11}, 40), w = randn({4, 3, 3}, 41), b = randn({4}, 42);
+  struct Case { int64_t stride, dil; ag::Conv1dPadding pad; bool bias; };
+  const std::vector<Case> cases = {
+      {1, 1, ag::Conv1dPadding::same_zeros(1), true},  {2, 1, ag::Conv1dPadding::same_zeros(1), true},
+      {1, 3, ag::Conv1dPadding::causal(), true},       {2, 2, ag::Conv1dPadding::causal(), false},
+      {1, 1, ag::Conv1dPadding::zeros(2, 0), true},    {2, 1, ag::Conv1dPadding::zeros(0, 3), false},
+      {3, 2, ag::Conv1dPadding::zeros(1, 2), true},    {1, 1, ag::Conv1dPadding::same_zeros(0), true}};
+  for (const auto& c : cases) {
+    const Tensor bb = c.bias ? b : Tensor();
+    Tensor want = naive_conv1d(x, w, bb, c.stride, c.dil, c.pad);
+    Tensor got = ag::conv1d(ag::Variable(x), ag::Variable(w), var_or_none(bb), c.stride, c.dil, c.pad).data();
+    ASSERT_EQ(got.shape(), want.shape()) << "stride " << c.stride << " dil " << c.dil;
+    EXPECT_LT(max_abs_diff(got, want), 1e-12) << "stride " << c.stride << " dil " << c.dil << " left "
+                                              << c.pad.left << " right " << c.pad.right;
+    Tensor got32 = ag::conv1d(ag::Variable(x.to(DType::f32)), ag::Variable(w.to(DType::f32)),
+                              var_or_none(c.bias ? b.to(DType::f32) : Tensor()), c.stride, c.dil, c.pad).data();
+    EXPECT_LT(max_abs_diff(got32.to(DType::f64), want), 1e-4);
+  }
+  // Causal: output frame t depends on input frames <= t only (changing the future changes nothing before it).
+  Tensor x2 = x.clone();
+  x2.set({0, 1, 7}, 100.0);
+  Tensor y1 = ag::conv1d(ag::Variable(x), ag::Variable(w), ag::Variable(b), 1, 2, ag::Conv1dPadding::causal()).data();
+  Tensor y2 = ag::conv1d(ag::Variable(x2), ag::Variable(w), ag::Variable(b), 1, 2, ag::Conv1dPadding::causal()).data();
+  EXPECT_EQ(max_abs_diff(y1.narrow(2, 0, 7), y2.narrow(2, 0, 7)), 0.0);
+  EXPECT_GT(max_abs_diff(y1.narrow(2, 7, 1), y2.narrow(2, 7, 1)), 0.0);
+}
+
+TEST(AgConv, Gradcheck) {
+  auto f = [](int64_t stride, int64_t dil, ag::Conv1dPadding pad, bool bias) {
+    return [=](const std::vector<ag::Variable>& v) {
+      return ag::conv1d(v[0], v[1], bias ? v[2] : ag::Variable(), stride, dil, pad);
+    };
+  };
+  const Tensor x = randn({2, 2, 7}, 43), w = randn({3, 2, 3}, 44), b = randn({3}, 45);
+  expect_gradcheck(f(1, 1, ag::Conv1dPadding::same_zeros(1), true), {x, w, b});
+  expect_gradcheck(f(2, 1, ag::Conv1dPadding::same_zeros(1), true), {x, w, b});
+  expect_gradcheck(f(1, 2, ag::Conv1dPadding::causal(), true), {x, w, b});
+  expect_gradcheck(f(2, 3, ag::Conv1dPadding::causal(), false), {x, w});
+  expect_gradcheck(f(2, 1, ag::Conv1dPadding::zeros(2, 1), true), {x, w, b});
+  expect_gradcheck(f(1, 1, ag::Conv1dPadding::zeros(0, 0), false), {x, randn({2, 2, 1}, 46)});
+  // Strided input (a transposed view).
+  expect_gradcheck([](const std::vector<ag::Variable>& v) {
+    return ag::conv1d(ag::transpose(v[0], 1, 2), v[1], ag::Variable(), 1, 1, ag::Conv1dPadding::causal());
+  }, {randn({1, 6, 2}, 47), randn({2, 2, 2}, 48)});
+}
+
+TEST(AgConv, UpsampleNearestValuesAndGradcheck) {
+  const Tensor x = randn({2, 3, 4}, 50);
+  Tensor y = ag::upsample_nearest1d(ag::Variable(x), 2).data();
+  ASSERT_EQ(y.shape(), (Shape{2, 3, 8}));
+  double err = 0;
+  for (int64_t b = 0; b < 2; ++b)
+    for (int64_t c = 0; c < 3; ++c)
+      for (int64_t t = 0; t < 8; ++t) err = std::max(err, std::fabs(y.at({b, c, t}) - x.at({b, c, t / 2})));
+  EXPECT_EQ(err, 0.0);
+  expect_gradcheck([](const std::vector<ag::Variable>& v) { return ag::upsample_nearest1d(v[0], 3); },
+                   {randn({2, 2, 3}, 51)});
+  expect_error([] { ag::upsample_nearest1d(ag::Variable(randn({2, 3}, 1)), 2); }, {"upsample_nearest1d", "[2, 3]"});
+  expect_error([] { ag::upsample_nearest1d(ag::Variable(randn({1, 2, 3}, 1)), 0); }, {"upsample_nearest1d", "scale"});
+}
+
+TEST(AgConv, BadUseThrows) {
+  ag::Variable x(randn({2, 3, 5}, 52)), w(randn({4, 3, 3}, 53));
+  expect_error([&] { ag::conv1d(ag::Variable(randn({3, 5}, 1)), w, ag::Variable()); }, {"conv1d", "3-D", "[3, 5]"});
+  expect_error([&] { ag::conv1d(x, ag::Variable(randn({4, 2, 3}, 1)), ag::Variable()); },
+               {"conv1d", "Cin", "[2, 3, 5]", "[4, 2, 3]"});
+  expect_error([&] { ag::conv1d(x, w, ag::Variable(randn({3}, 1))); }, {"conv1d", "bias", "[3]"});
+  expect_error([&] { ag::conv1d(x, w, ag::Variable(), 0); }, {"conv1d", "stride"});
+  expect_error([&] { ag::conv1d(x, w, ag::Variable(), 1, 1, ag::Conv1dPadding::zeros(-1, 0)); }, {"conv1d", "padding"});
+  expect_error([&] { ag::conv1d(x, w, ag::Variable(), 1, 3); }, {"conv1d", "[2, 3, 5]"});  // To < 1
+  expect_error([&] { ag::conv1d(x, ag::Variable(randn({4, 3, 3}, 1, DType::f32)), ag::Variable()); },
+               {"conv1d", "dtype"});
+}
+
+// ---- embedding ---------------------------------------------------------------------------------------------
+
+TEST(AgEmbedding, GatherValuesScatterAddBackwardAndGradcheck) {
+  const Tensor w = randn({5, 3}, 60);
+  const Tensor ids = Tensor::from_vector(std::vector<int64_t>{4, 0, 4, 2, 4, 1}, {2, 3});
+  ag::Variable wv(w, true);
+  ag::Variable y = ag::embedding(wv, ids);
+  ASSERT_EQ(y.shape(), (Shape{2, 3, 3}));
+  for (int64_t i = 0; i < 2; ++i)
+    for (int64_t j = 0; j < 3; ++j)
+      for (int64_t d = 0; d < 3; ++d)
+        EXPECT_EQ(y.data().at({i, j, d}), w.at({(int64_t)ids.at({i, j}), d}));
+  ag::sum(y).backward();
+  // Row 4 used three times, rows 0, 1, 2 once, row 3 never.
+  EXPECT_EQ(wv.grad().select(1, 0).to_vector<double>(), (std::vector<double>{1, 1, 1, 0, 3}));
+  expect_gradcheck([ids](const std::vector<ag::Variable>& v) { return ag::embedding(v[0], ids); }, {w});
+  const Tensor scalar_id = Tensor::from_vector(std::vector<int64_t>{3}, {1}).view({});
+  EXPECT_EQ(ag::embedding(ag::Variable(w), scalar_id).shape(), (Shape{3}));
+  // Large enough to take the threaded backward: same as a serial reference.
+  Generator g(61);
+  const Tensor big_ids = randint({4000}, g, 0, 50);
+  ag::Variable bw(randn({50, 64}, 62), true);
+  ag::sum(ag::mul(ag::embedding(bw, big_ids), ag::Variable(randn({4000, 64}, 63)))).backward();
+  Tensor ref = Tensor::zeros({50, 64}, DType::f64);
+  const Tensor gw = randn({4000, 64}, 63);
+  for (int64_t n = 0; n < 4000; ++n) {
+    Tensor row = ref.select(0, (int64_t)big_ids.at({n}));
+    add_(row, gw.select(0, n));
+  }
+  EXPECT_LT(max_abs_diff(bw.grad(), ref), 1e-12);
+}
+
+TEST(AgEmbedding, BadUseThrows) {
+  ag::Variable w(randn({5, 3}, 64));
+  expect_error([&] { ag::embedding(w, Tensor::from_vector(std::vector<int64_t>{1, 5}, {2})); },
+               {"embedding", "id 5", "V = 5"});
+  expect_error([&] { ag::embedding(w, Tensor::from_vector(std::vector<int64_t>{-1}, {1})); }, {"embedding", "id -1"});
+  expect_error([&] { ag::embedding(w, Tensor::zeros({2})); }, {"embedding", "int64", "f32"});
+  expect_error([&] { ag::embedding(ag::Variable(randn({5}, 1)), Tensor::zeros({2}, DType::i64)); },
+               {"embedding", "[5]"});
 }
