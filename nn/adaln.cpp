@@ -6,10 +6,9 @@
 #include <string>
 
 #include "autograd/node.h"
-#include "autograd/ops_elementwise.h"
 #include "autograd/ops_join.h"
-#include "autograd/ops_linalg.h"
-#include "autograd/ops_unary.h"
+#include "autograd/ops_activation.h"
+#include "nn/linear.h"
 #include "tensor/parallel.h"
 
 namespace t2m::nn {
@@ -183,7 +182,7 @@ void AdaLN::zero_init() {
 std::vector<ag::Variable> AdaLN::forward(const ag::Variable& c) const {
   if (c.dim() != 2 || c.size(1) != cond_dim_)
     throw Error("AdaLN: c must be (B, " + std::to_string(cond_dim_) + "), got " + shape_str(c.shape()));
-  ag::Variable h = ag::matmul_t(c * ag::sigmoid(c), false, weight, true) + bias;
+  ag::Variable h = linear(ag::silu(c), weight, bias);  // one GEMM, bias fused
   return ag::chunk(h, chunks_, 1);
 }
 
