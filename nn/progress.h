@@ -1,6 +1,7 @@
 // progress.h — a progress bar for long commands, written to stderr (or any FILE*).
 //
-//   nn::Progress bar(total_steps, "train vbb", {.start = ts.step});
+//   nn::ProgressOptions po; po.start = ts.step;
+//   nn::Progress bar(total_steps, "train vbb", po);
 //   for (...) { ...; bar.update(ts.step, {{"loss", loss}, {"kl", kl}}); }
 //   bar.finish();
 // Line: "train vbb  [#########.........]  1200/5000  24%  35.2 it/s  ETA 1m48s  loss 0.0312  kl 1.2e-03"

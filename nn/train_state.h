@@ -3,7 +3,8 @@
 //
 // Usage: a resumable training loop in chunks (later `t2m train X --resume` commands follow this shape).
 //   auto params = model.named_parameters();
-//   nn::AdamW opt(params, {.lr = 5e-5, .weight_decay = 5e-4, .no_decay = nn::no_decay_1d});
+//   nn::AdamWOptions ao; ao.lr = 5e-5; ao.weight_decay = 5e-4; ao.no_decay = nn::no_decay_1d;
+//   nn::AdamW opt(params, ao);
 //   nn::Ema ema(params, 0.999, /*warmup=*/true);
 //   t2m::Generator data_rng(seed), drop_rng(seed + 1);
 //   auto sched = nn::LrSchedule::warmup_cosine(5e-5, 1000, total_steps, 1e-6);
