@@ -1,6 +1,6 @@
-// loss_frame_token.cpp — Eq 7–12 from autograd ops. Layout of the score tensor: S (Bm, Tm, Bt, K), the direct
-// reshape of the (Bm·Tm, Bt·K) product, so the token pooling reduces dim 3 and the frame weighting dim 1 without
-// any permute.
+// loss_frame_token.cpp — Eq 7–12 from autograd ops plus the fused token pooling (nn/loss_token_pool.h). Layout:
+// the (Bm·Tm, Bt·K) score product viewed as (Bm·Tm, Bt, K), so the token pooling reduces the last dim and the
+// frame weighting dim 1 of F (Bm, Tm, Bt), without any permute.
 #include "nn/loss_frame_token.h"
 
 #include <cmath>
@@ -13,6 +13,7 @@
 #include "autograd/ops_shape.h"
 #include "autograd/ops_softmax.h"
 #include "nn/loss_reduce.h"
+#include "nn/loss_token_pool.h"
 #include "tensor/ops.h"
 
 namespace t2m::nn {
@@ -59,13 +60,10 @@ ag::Variable frame_token_similarity(const ag::Variable& motion, const Tensor& mo
   ag::Variable m = opt.normalize ? l2_normalize(motion) : motion;
   ag::Variable y = opt.normalize ? l2_normalize(text) : text;
   m = ag::mul(m, 1.0 / opt.lambda_tok);
-  // S/λtok: (Bm·Tm, D) × (Bt·K, D)^T -> (Bm, Tm, Bt, K)
-  ag::Variable s = ag::matmul_t(m.reshape({Bm * Tm, D}), false, y.reshape({Bt * K, D}), true).view({Bm, Tm, Bt, K});
-  // Eq 8: λtok (logsumexp over valid tokens − log K_j)
-  const Tensor tok_pad = t2m::eq(tvalid, Tensor::zeros({}, dt)).view({1, 1, Bt, K});
-  s = ag::masked_fill(s, tok_pad, kNegInf);
-  const Tensor log_k = t2m::log(t2m::sum(tvalid, {1})).view({1, 1, Bt});  // log K_j
-  ag::Variable f = ag::mul(ag::sub(ag::logsumexp(s, 3), ag::Variable(log_k)), opt.lambda_tok);  // (Bm, Tm, Bt)
+  // S/λtok: (Bm·Tm, D) × (Bt·K, D)^T -> (Bm·Tm, Bt, K)
+  ag::Variable s = ag::matmul_t(m.reshape({Bm * Tm, D}), false, y.reshape({Bt * K, D}), true).view({Bm * Tm, Bt, K});
+  // Eq 8: λtok · log-mean-exp over the valid tokens (fused, nn/loss_token_pool.h)
+  ag::Variable f = ag::mul(masked_log_mean_exp(s, tvalid).view({Bm, Tm, Bt}), opt.lambda_tok);  // (Bm, Tm, Bt)
   // Eq 9: softmax over the valid frames of F/λfrm
   const Tensor frm_pad = t2m::eq(mvalid, Tensor::zeros({}, dt)).view({Bm, Tm, 1});
   ag::Variable w = ag::softmax(ag::masked_fill(ag::mul(f, 1.0 / opt.lambda_frm), frm_pad, kNegInf), 1);

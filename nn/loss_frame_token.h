@@ -20,7 +20,8 @@
 //   the learnable parameter (one element) and receives a gradient. opt.text_ids (int64 (B,)) removes false
 //   negatives sharing a caption id, as in symmetric_contrastive. L_sem of Eq 12 is result.loss.
 //
-// Cost: one (Bm·Tm, D)×(D, Bt·K) product and a few (Bm, Tm, Bt, K) temporaries (B = 64, Tm = 25, K = 24 ->
+// Cost: one (Bm·Tm, D)×(D, Bt·K) product (the dominant FLOPs) and two (Bm, Tm, Bt, K) tensors (S, kept for the
+// backward of the fused token pooling, and its gradient; B = 64, Tm = 25, K = 24 ->
 // 2.5M elements each).
 // Errors ("frame_token: ..."): motion/text not 3-D or D differs, dtypes differ or not float, mask shapes wrong,
 // a clip/caption with no valid entry (names which), λ <= 0, alpha not one element, Bm != Bt for the loss.

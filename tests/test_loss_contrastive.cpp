@@ -10,6 +10,7 @@
 #include "autograd/autograd.h"
 #include "nn/loss_contrastive.h"
 #include "nn/loss_frame_token.h"
+#include "nn/loss_token_pool.h"
 #include "tensor/ops.h"
 #include "test_tensor_util.h"
 
@@ -170,6 +171,44 @@ TEST(SymmetricContrastive, BadUseThrows) {
                {"symmetric_contrastive", "text_ids", "int64"});
   expect_error([] { nn::info_nce(var(Tensor::zeros({3, 4})), var(Tensor::zeros({3, 5})), var(Tensor::zeros({}))); },
                {"info_nce", "[3, 4]", "[3, 5]"});
+}
+
+// ---- fused token pooling (Eq 8) ----------------------------------------------------------------------------------
+
+TEST(MaskedLogMeanExp, MatchesNaiveAndGradchecks) {
+  Tensor x = random_tensor({2, 3, 4}, DType::f64, 60, -3, 3);
+  const std::vector<int> v = {1, 0, 1, 1, 0, 0, 0, 1, 1, 1, 1, 1};
+  Tensor valid = mask_tensor(v, {3, 4});
+  Tensor out = nn::masked_log_mean_exp(var(x), valid).data();
+  ASSERT_EQ(out.shape(), (Shape{2, 3}));
+  for (int64_t n = 0; n < 2; ++n)
+    for (int64_t j = 0; j < 3; ++j) {
+      double s = 0.0, kj = 0.0;
+      for (int64_t k = 0; k < 4; ++k)
+        if (v[j * 4 + k]) s += std::exp(x.at({n, j, k})), kj += 1.0;
+      EXPECT_NEAR(out.at({n, j}), std::log(s / kj), 1e-14);
+    }
+  expect_gradcheck([valid](const VV& a) { return nn::masked_log_mean_exp(a[0], valid); }, {x});
+  // A transposed (non-contiguous) input gives the same values.
+  Tensor xt = x.transpose(0, 1).contiguous().transpose(0, 1);
+  EXPECT_EQ(max_abs_diff(nn::masked_log_mean_exp(var(xt), valid).data(), out), 0.0);
+}
+
+TEST(MaskedLogMeanExp, HugeValuesAndPaddingGarbage) {
+  Tensor x = Tensor::from_vector(std::vector<float>{3e4f, 3e4f + 1.f, -1e30f, 1e30f}, {1, 1, 4});
+  Tensor valid = Tensor::from_vector(std::vector<int64_t>{1, 1, 1, 0}, {1, 4});
+  Variable vx = var(x, true);
+  Variable out = nn::masked_log_mean_exp(vx, valid);
+  EXPECT_NEAR(out.item(), 3e4 + 1.0 + std::log((1.0 + std::exp(-1.0)) / 3.0), 1e-2);
+  out.backward();
+  EXPECT_EQ(vx.grad().at({0, 0, 3}), 0.0);  // padded: no gradient even with a huge value
+  EXPECT_NEAR(vx.grad().at({0, 0, 1}), 1.0 / (1.0 + std::exp(-1.0)), 1e-6);
+  expect_error([] { nn::masked_log_mean_exp(var(Tensor::zeros({2, 3})), Tensor::ones({3})); },
+               {"masked_log_mean_exp", "(N, J, K)", "[2, 3]"});
+  expect_error([] { nn::masked_log_mean_exp(var(Tensor::zeros({2, 3, 4})), Tensor::ones({3, 5})); },
+               {"masked_log_mean_exp", "[3, 4]", "[3, 5]"});
+  expect_error([] { nn::masked_log_mean_exp(var(Tensor::zeros({2, 1, 2})), Tensor::zeros({1, 2})); },
+               {"masked_log_mean_exp", "row 0", "no valid"});
 }
 
 // ---- frame-token (Eq 7–12) ---------------------------------------------------------------------------------------
