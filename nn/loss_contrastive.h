@@ -15,8 +15,8 @@
 //   logsumexp subtracts the max, so logits of any size give finite values. text_ids: undefined, or an int64
 //   (B,) tensor of caption ids; then off-diagonal entries (i, j) with text_ids[i] == text_ids[j] are false
 //   negatives (the same caption paired with another clip) and are left out of both denominators (TMR-style
-//   filtering, with id equality instead of a text-similarity threshold). With one text per pair, uniform logits
-//   give loss = log B; perfectly aligned, well-separated logits give ~0.
+//   filtering, with id equality instead of a text-similarity threshold). Without exclusion, equal logits give
+//   loss = log B; a diagonal that exceeds every off-diagonal entry by a wide margin gives ~0.
 //   Errors ("symmetric_contrastive: ..."): logits not (B, B) with B >= 1, non-float logits, text_ids not int64 (B,).
 //
 // info_nce(motion, text, alpha, text_ids, normalize) — TMR/CLIP InfoNCE on pooled embeddings: motion (B, D) and
@@ -48,7 +48,8 @@ void clamp_logit_scale_(const ag::Variable& alpha);
 
 ContrastiveLoss symmetric_contrastive(const ag::Variable& logits, const Tensor& text_ids = Tensor());
 
-// x (..., D) / max(||x||_2 along D, eps) — Eq 7's normalisation (zero vectors stay zero, finite gradient).
+// x (..., D) / max(||x||_2 along D, eps) — Eq 7's normalisation. A zero vector stays zero; its gradient is the
+// incoming one times 1/eps (finite; zero for padded rows, whose incoming gradient is zero).
 ag::Variable l2_normalize(const ag::Variable& x, double eps = 1e-12);
 
 ContrastiveLoss info_nce(const ag::Variable& motion, const ag::Variable& text, const ag::Variable& alpha,
