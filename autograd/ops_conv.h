@@ -7,7 +7,10 @@
 //   Padding::zeros(left, right): zero frames on each side (symmetric padding goes straight to the kernel;
 //     asymmetric padding is an explicit differentiable zero-pad step first).
 //   Padding::causal(): (K-1)*dilation copies of frame 0 on the left, none on the right (the VBB's causal
-//     replicate padding); the padding's gradient flows into frame 0.
+//     replicate padding, straight to the kernel); the padding's gradient flows into frame 0.
+//   Padding::causal(left): `left` copies of frame 0 instead (an explicit differentiable replicate step, then an
+//     unpadded conv), e.g. the anchor's strided causal conv pads (K-1)*dilation + 1 - stride so that output t
+//     sees inputs < (t+1)*stride.
 //   Backward: dx = col2im(W^T g), dW += g col^T, db = sum over (B, To) of g (one GEMM each on the whole batch).
 // upsample_nearest1d(x, scale): x (B, C, T) -> (B, C, T*scale), out[b, c, t] = x[b, c, t / scale];
 //   the gradient of each input frame is the sum of its `scale` output gradients.
@@ -24,11 +27,12 @@ namespace t2m::ag {
 struct Conv1dPadding {
   enum class Mode : uint8_t { zeros, causal_replicate };
   Mode mode = Mode::zeros;
-  int64_t left = 0, right = 0;  // zero frames (zeros mode only)
+  int64_t left = 0, right = 0;  // zeros: zero frames per side; causal: replicated frames on the left
+                                // (left < 0: (K-1)*dilation), right unused
 
   static Conv1dPadding zeros(int64_t left, int64_t right) { return {Mode::zeros, left, right}; }
   static Conv1dPadding same_zeros(int64_t pad) { return {Mode::zeros, pad, pad}; }
-  static Conv1dPadding causal() { return {Mode::causal_replicate, 0, 0}; }
+  static Conv1dPadding causal(int64_t left = -1) { return {Mode::causal_replicate, left, 0}; }
 };
 
 Variable conv1d(const Variable& x, const Variable& weight, const Variable& bias, int64_t stride = 1,

@@ -101,7 +101,7 @@ Tensor naive_conv1d(const Tensor& x, const Tensor& w, const Tensor& b, int64_t s
                     ag::Conv1dPadding pad) {
   const int64_t B = x.size(0), Cin = x.size(1), T = x.size(2), Cout = w.size(0), K = w.size(2);
   const bool causal = pad.mode == ag::Conv1dPadding::Mode::causal_replicate;
-  const int64_t L = causal ? (K - 1) * dil : pad.left, R = causal ? 0 : pad.right;
+  const int64_t L = causal && pad.left < 0 ? (K - 1) * dil : pad.left, R = causal ? 0 : pad.right;
   const int64_t To = (T + L + R - dil * (K - 1) - 1) / stride + 1;
   Tensor out = Tensor::zeros({B, Cout, To}, DType::f64);
   for (int64_t bi = 0; bi < B; ++bi)
@@ -289,7 +289,9 @@ TEST(AgConv, MatchesNaiveAllPaddingModes) {
       {1, 1, ag::Conv1dPadding::same_zeros(1), true},  {2, 1, ag::Conv1dPadding::same_zeros(1), true},
       {1, 3, ag::Conv1dPadding::causal(), true},       {2, 2, ag::Conv1dPadding::causal(), false},
       {1, 1, ag::Conv1dPadding::zeros(2, 0), true},    {2, 1, ag::Conv1dPadding::zeros(0, 3), false},
-      {3, 2, ag::Conv1dPadding::zeros(1, 2), true},    {1, 1, ag::Conv1dPadding::same_zeros(0), true}};
+      {3, 2, ag::Conv1dPadding::zeros(1, 2), true},    {1, 1, ag::Conv1dPadding::same_zeros(0), true},
+      {2, 1, ag::Conv1dPadding::causal(1), true},      {2, 2, ag::Conv1dPadding::causal(5), false},
+      {1, 1, ag::Conv1dPadding::causal(0), true}};
   for (const auto& c : cases) {
     const Tensor bb = c.bias ? b : Tensor();
     Tensor want = naive_conv1d(x, w, bb, c.stride, c.dil, c.pad);
@@ -322,6 +324,8 @@ TEST(AgConv, Gradcheck) {
   expect_gradcheck(f(1, 2, ag::Conv1dPadding::causal(), true), {x, w, b});
   expect_gradcheck(f(2, 3, ag::Conv1dPadding::causal(), false), {x, w});
   expect_gradcheck(f(2, 1, ag::Conv1dPadding::zeros(2, 1), true), {x, w, b});
+  expect_gradcheck(f(2, 1, ag::Conv1dPadding::causal(1), true), {x, w, b});   // anchor: (K-1)d + 1 - stride
+  expect_gradcheck(f(1, 1, ag::Conv1dPadding::causal(4), false), {x, w});
   expect_gradcheck(f(1, 1, ag::Conv1dPadding::zeros(0, 0), false), {x, randn({2, 2, 1}, 46)});
   // Strided input (a transposed view).
   expect_gradcheck([](const std::vector<ag::Variable>& v) {

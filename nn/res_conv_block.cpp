@@ -1,0 +1,28 @@
+// res_conv_block.cpp — GroupNorm -> ReLU -> causal dilated conv k3 -> GroupNorm -> ReLU -> conv k1 -> dropout,
+// plus the skip connection.
+#include "nn/res_conv_block.h"
+
+#include "autograd/ops_elementwise.h"
+#include "autograd/ops_unary.h"
+
+namespace t2m::nn {
+
+ResConvBlock::ResConvBlock(int64_t channels, int64_t dilation, Generator& gen, int64_t groups, double dropout)
+    : dilation_(dilation) {
+  n1_ = register_module("n1", std::make_shared<GroupNorm>(groups, channels));
+  Conv1dOptions causal;
+  causal.dilation = dilation;
+  causal.mode = Conv1dPad::causal;
+  c1_ = register_module("c1", std::make_shared<Conv1d>(channels, channels, 3, causal, gen));
+  n2_ = register_module("n2", std::make_shared<GroupNorm>(groups, channels));
+  c2_ = register_module("c2", std::make_shared<Conv1d>(channels, channels, 1, Conv1dOptions{}, gen));
+  drop_ = register_module("drop", std::make_shared<Dropout>(dropout));
+}
+
+ag::Variable ResConvBlock::forward(const ag::Variable& x, Generator& gen) const {
+  ag::Variable h = c1_->forward(ag::relu(n1_->forward(x)));
+  h = c2_->forward(ag::relu(n2_->forward(h)));
+  return ag::add(x, drop_->forward(h, gen));
+}
+
+}  // namespace t2m::nn
