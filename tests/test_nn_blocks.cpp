@@ -212,3 +212,25 @@ TEST(NnTransformerBlock, NamesValuesGradientsAndPadding) {
   for (int64_t t : {0, 1, 3, 4}) EXPECT_LT(max_abs_diff(a.narrow(1, t, 1), b.narrow(1, t, 1)), 1e-12) << t;
   expect_error([&] { blk.forward(ag::Variable(randn({2, 5, 3}, 1))); }, {"[2, 5, 3]"});
 }
+
+TEST(NnDiTBlock, Float32AgreesWithFloat64) {
+  // the same weights in float32 and float64: outputs and parameter gradients agree to float precision (the
+  // PyTorch parity target is 1e-4 relative in float32)
+  Generator g1(30), g2(30);
+  nn::DiTBlock b32({.dim = 16, .heads = 4, .ctx_dim = 8}, g1), b64({.dim = 16, .heads = 4, .ctx_dim = 8}, g2);
+  b64.to(DType::f64);
+  const Tensor x = randn({2, 6, 16}, 31), c = randn({2, 16}, 32), ctx = randn({2, 5, 8}, 33), w = randn({2, 6, 16}, 34);
+  ag::Variable y32 = b32.forward(ag::Variable(x.to(DType::f32)), ag::Variable(c.to(DType::f32)),
+                                 ag::Variable(ctx.to(DType::f32)), Tensor(), Tensor(), 3);
+  ag::Variable y64 = b64.forward(ag::Variable(x), ag::Variable(c), ag::Variable(ctx), Tensor(), Tensor(), 3);
+  const double scale = t2m::amax(t2m::abs(y64.data())).item();
+  EXPECT_LT(max_abs_diff(y32.data().to(DType::f64), y64.data()), 1e-5 * scale);
+  y32.backward(w.to(DType::f32));
+  y64.backward(w);
+  const auto p32 = b32.named_parameters(), p64 = b64.named_parameters();
+  for (size_t i = 0; i < p32.size(); ++i) {
+    const Tensor& g64 = p64[i].second.grad();
+    const double gs = t2m::amax(t2m::abs(g64)).item();
+    EXPECT_LT(max_abs_diff(p32[i].second.grad().to(DType::f64), g64), 1e-4 * gs + 1e-6) << p32[i].first;
+  }
+}
