@@ -131,7 +131,7 @@ TEST(AgAttention, GradcheckStridedInputs) {
   expect_gradcheck(f, {randn({1, 3, 3, 2, 2}, 30)});
 }
 
-TEST(AgAttention, OnlyRequestedGradientsAndSecondUse) {
+TEST(AgAttention, OnlyRequestedGradients) {
   const Shape s{1, 2, 3, 4};
   ag::Variable q(randn(s, 40), true), k(randn(s, 41)), v(randn(s, 42), true);
   ag::sum(ag::attention(q, k, v)).backward();
