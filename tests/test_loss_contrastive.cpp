@@ -12,6 +12,8 @@
 #include "nn/loss_frame_token.h"
 #include "nn/loss_token_pool.h"
 #include "tensor/ops.h"
+#include "tensor/parallel.h"
+#include "tensor/rng.h"
 #include "test_tensor_util.h"
 
 namespace {
@@ -154,6 +156,25 @@ TEST(InfoNce, GradcheckEmbeddingsAndLogitScale) {
                    {m, y, scalar64(2.0)});
   expect_gradcheck([](const VV& v) { return nn::info_nce(v[0], v[1], v[2], Tensor(), false).loss; },
                    {m, y, scalar64(0.4)});
+}
+
+TEST(SymmetricContrastive, GradcheckLogitsWithExclusion) {
+  Tensor L = random_tensor({4, 4}, DType::f64, 6, -3, 3);
+  Tensor tid = Tensor::from_vector(std::vector<int64_t>{1, 2, 1, 1}, {4});
+  expect_gradcheck([tid](const VV& v) { return nn::symmetric_contrastive(v[0], tid).loss; }, {L});
+  expect_gradcheck([](const VV& v) { return nn::symmetric_contrastive(v[0]).motion_to_text; }, {L});
+}
+
+TEST(L2Normalize, UnitRowsZeroRowAndGradcheck) {
+  Tensor x = random_tensor({3, 4}, DType::f64, 7);
+  for (int64_t d = 0; d < 4; ++d) x.set({1, d}, 0.0);
+  Tensor y = nn::l2_normalize(var(x)).data();
+  for (int64_t r = 0; r < 3; ++r) {
+    double n = 0.0;
+    for (int64_t d = 0; d < 4; ++d) n += y.at({r, d}) * y.at({r, d});
+    EXPECT_NEAR(n, r == 1 ? 0.0 : 1.0, 1e-14);
+  }
+  expect_gradcheck([](const VV& v) { return nn::l2_normalize(v[0]); }, {random_tensor({2, 3}, DType::f64, 8)});
 }
 
 TEST(SymmetricContrastive, HugeLogitsStayFinite) {
@@ -334,6 +355,23 @@ TEST(FrameToken, SharpTemperaturesAndMaxScaleStayFinite) {
   nn::ContrastiveLoss r64 = nn::frame_token_contrastive_loss(var(m.to(DType::f64)), Tensor(), var(y.to(DType::f64)),
                                                              Tensor(), var(scalar64(2.0)));
   EXPECT_NEAR(r32.loss.item(), r64.loss.item(), 1e-5);
+}
+
+TEST(FrameToken, SameResultForOneAndTwoThreads) {
+  // Large enough for the fused pooling (N·J·K = 32768) and the GEMM to take their threaded paths.
+  Generator g(5);
+  Tensor m = rand_normal({8, 8, 16}, g), y = rand_normal({8, 64, 16}, g);
+  auto run = [&](int nt) {
+    set_num_threads(nt);
+    Variable vm = var(m, true), vy = var(y, true);
+    nn::ContrastiveLoss r = nn::frame_token_contrastive_loss(vm, Tensor(), vy, Tensor(), var(Tensor::scalar(2.f)));
+    r.loss.backward();
+    return std::vector<Tensor>{r.loss.data(), vm.grad(), vy.grad()};
+  };
+  const int prev = get_num_threads();
+  const std::vector<Tensor> a = run(1), b = run(2);
+  set_num_threads(prev);
+  for (size_t i = 0; i < a.size(); ++i) EXPECT_EQ(max_abs_diff(a[i], b[i]), 0.0) << "output " << i;
 }
 
 TEST(FrameToken, BadUseThrows) {
