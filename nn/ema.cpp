@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <set>
 
+#include "tensor/parallel.h"
+
 namespace t2m::nn {
 
 Ema::Ema(NamedParams params, double decay, bool warmup) : params_(std::move(params)), decay_(decay), warmup_(warmup) {
@@ -27,6 +29,8 @@ namespace {
 
 template <typename T>
 void ema_update(T* s, const T* p, int64_t n, double d) {
+  const int nt = n >= kParallelGrain ? get_num_threads() : 1;  // elementwise: identical for any thread count
+#pragma omp parallel for schedule(static) num_threads(nt) if (nt > 1)
   for (int64_t i = 0; i < n; ++i) s[i] = (T)(d * (double)s[i] + (1.0 - d) * (double)p[i]);
 }
 

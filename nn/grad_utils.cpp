@@ -1,10 +1,12 @@
-// grad_utils.cpp — fixed-order double accumulation; scan for non-finite values.
+// grad_utils.cpp — fixed-block double accumulation (parallel, deterministic); scan for non-finite values.
 #include "nn/grad_utils.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
 #include "tensor/ops.h"
+#include "tensor/parallel.h"
 
 namespace t2m::nn {
 
@@ -42,13 +44,31 @@ void count_nonfinite(const T* x, int64_t n, int64_t& count, int64_t& first, doub
 }  // namespace
 
 double grad_norm(const NamedParams& params) {
-  double total = 0.0;
+  // Fixed blocks of kBlock elements per tensor; block sums in parallel, then added in (tensor, block) order, so the
+  // result depends neither on the thread count nor on scheduling.
+  constexpr int64_t kBlock = 1 << 15;
+  struct Block { const void* p; bool f64; int64_t n; };
+  std::vector<Tensor> keep;
+  std::vector<Block> blocks;
   for (const auto& kv : params) {
     const Tensor* g = grad_ptr(kv, "grad_norm");
     if (!g) continue;
-    const Tensor c = g->contiguous();
-    total += c.dtype() == DType::f64 ? sum_sq(c.data<double>(), c.numel()) : sum_sq(c.data<float>(), c.numel());
+    keep.push_back(g->contiguous());
+    const Tensor& c = keep.back();
+    const bool f64 = c.dtype() == DType::f64;
+    for (int64_t o = 0; o < c.numel(); o += kBlock) {
+      const void* p = f64 ? (const void*)(c.data<double>() + o) : (const void*)(c.data<float>() + o);
+      blocks.push_back({p, f64, std::min(kBlock, c.numel() - o)});
+    }
   }
+  std::vector<double> part(blocks.size());
+  const int64_t nb = (int64_t)blocks.size();
+  const int nt = nb > 1 ? get_num_threads() : 1;
+#pragma omp parallel for schedule(static) num_threads(nt) if (nt > 1)
+  for (int64_t b = 0; b < nb; ++b)
+    part[b] = blocks[b].f64 ? sum_sq((const double*)blocks[b].p, blocks[b].n) : sum_sq((const float*)blocks[b].p, blocks[b].n);
+  double total = 0.0;
+  for (double x : part) total += x;
   return std::sqrt(total);
 }
 

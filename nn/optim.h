@@ -3,7 +3,9 @@
 // An optimizer owns a list of named parameters (usually Module::named_parameters()) and, per parameter, a fixed
 // set of state "slots" (AdamW: exp_avg, exp_avg_sq; SGD: momentum_buffer), each a tensor of the parameter's shape
 // and dtype. step() applies one update from the parameters' .grad() and increments step_count(); parameters whose
-// grad is undefined (never reached by backward) are skipped, their state untouched. The learning rate is set from
+// grad is undefined (never reached by backward) are skipped, their state untouched. The step count is one per
+// optimizer, not per parameter as in torch: a parameter skipped for k steps sees bias corrections / first-step
+// rules of the global count afterwards (identical to torch when every parameter gets a grad every step). The learning rate is set from
 // outside before each step (nn/lr_schedule.h gives it as a pure function of step_count()).
 //
 // State in a checkpoint, under `prefix` (e.g. "optim."):

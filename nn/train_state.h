@@ -11,9 +11,14 @@
 //   nn::TrainState ts(params, config_json);
 //   ts.optimizer(opt).ema(ema).generator("data", data_rng).generator("dropout", drop_rng);
 //   if (resume && std::filesystem::exists(path)) ts.load(path);       // throws on any mismatch, changes nothing
+//   nn::TrainLog log(dir + "/log.jsonl", ts.step);                    // drops lines newer than the checkpoint
+//   nn::ProgressOptions po; po.start = ts.step; nn::Progress bar(total_steps, "train vbb", po);
 //   while (ts.step < total_steps) {                                    // ts.step = updates done so far
-//     opt.set_lr(sched.at(ts.step)); opt.zero_grad(); loss(batch(data_rng), drop_rng).backward();
-//     nn::check_finite_grads(params); nn::clip_grad_norm(params, 1.0); opt.step(); ema.update();
+//     opt.set_lr(sched.at(ts.step)); opt.zero_grad();
+//     ag::Variable loss = model_loss(batch(data_rng), drop_rng); loss.backward(); const double l = loss.item();
+//     if (!std::isfinite(nn::clip_grad_norm(params, 1.0))) nn::check_finite_grads(params);  // names the bad param
+//     opt.step(); ema.update(); log.write({{"step", ts.step + 1}, {"loss", l}, {"lr", opt.lr()}});
+//     bar.update(ts.step + 1, {{"loss", l}});
 //     if (++ts.step % save_every == 0 || ts.step == total_steps) ts.save(path);
 //   }
 // (ts.step is the caller's counter; the convention above keeps it equal to opt.step_count().)

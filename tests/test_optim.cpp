@@ -11,6 +11,7 @@
 #include "nn/lr_schedule.h"
 #include "nn/optim_adamw.h"
 #include "nn/optim_sgd.h"
+#include "tensor/parallel.h"
 #include "tensor/rng.h"
 
 using namespace t2m;
@@ -254,6 +255,20 @@ TEST(GradUtils, ClipGradNormUsesTheGlobalNormInAFixedOrder) {
     for (float x : v.grad().to_vector<float>()) ss += (double)x * x;
   EXPECT_NEAR(nn::grad_norm(big), std::sqrt(ss), 1e-12 * std::sqrt(ss));
   expect_error([&] { nn::clip_grad_norm(ps, 0.0); }, {"clip_grad_norm", "max_norm"});
+  // Many blocks: the same bits for 1 and 2 threads, and close to the naive sum.
+  NamedParams huge = make_params({{100000}, {3}, {70001}}, DType::f32, 4);
+  set_grads(huge, g);
+  double hs = 0;
+  for (auto& [n, v] : huge)
+    for (float x : v.grad().to_vector<float>()) hs += (double)x * x;
+  const int saved = get_num_threads();
+  set_num_threads(1);
+  const double n1 = nn::grad_norm(huge);
+  set_num_threads(2);
+  const double n2 = nn::grad_norm(huge);
+  set_num_threads(saved);
+  EXPECT_EQ(n1, n2);
+  EXPECT_NEAR(n1, std::sqrt(hs), 1e-12 * std::sqrt(hs));
 }
 
 TEST(GradUtils, CheckFiniteGradsNamesTheFirstBadParameterAndCounts) {

@@ -168,6 +168,7 @@ TEST(Resume, BitIdenticalAcrossAFreshProcess) {
   forgetful.drop_rng.set_state(200, 0);
   forgetful.train_step();
   EXPECT_NE(forgetful.losses[0], straight.losses[kN]);
+  if (!HasFailure()) fs::remove_all(d);
 }
 
 TEST(Resume, InProcessResumeAlsoMatches) {
@@ -182,6 +183,7 @@ TEST(Resume, InProcessResumeAlsoMatches) {
   for (int64_t i = 0; i < kN; ++i) EXPECT_EQ(b.train_step(), straight.losses[kN + i]);
   for (size_t i = 0; i < straight.params.size(); ++i)
     expect_bits(b.params[i].second.data(), straight.params[i].second.data(), straight.params[i].first);
+  fs::remove(p);
 }
 
 TEST(Resume, BadCheckpointsGiveClearErrorsAndChangeNothing) {
@@ -233,6 +235,7 @@ TEST(Resume, BadCheckpointsGiveClearErrorsAndChangeNothing) {
   EXPECT_EQ(fresh.ts->step, 0);
   EXPECT_EQ(fresh.opt->step_count(), 0);
   EXPECT_EQ(fresh.data_rng.offset(), 0u);
+  if (!HasFailure()) fs::remove_all(d);
 }
 
 TEST(Progress, PlainLinesEveryIntervalAndTtyRedraws) {
@@ -354,4 +357,5 @@ TEST(TrainLog, JsonLinesRoundTripResumeTruncationAndSvg) {
   EXPECT_NE(s2.find(">a (log)<"), std::string::npos);
   EXPECT_NE(s2.find(">b (log)<"), std::string::npos);
   expect_error([] { nn::loss_curve_svg({json{{"x", 1}}}); }, {"loss_curve_svg", "nothing to plot"});
+  if (!HasFailure()) fs::remove_all(d);
 }
