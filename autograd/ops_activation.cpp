@@ -1,14 +1,16 @@
 // ops_activation.cpp — forward/backward pairs of gelu_tanh (fused kernel), silu (one pass each way, OpenMP over
-// large tensors) and inverted dropout (Philox mask saved for the backward).
+// large tensors) and inverted dropout (one fused Philox pass; a byte mask saved for the backward).
 #include "autograd/ops_activation.h"
 
 #include <cmath>
+#include <cstdint>
+#include <memory>
 #include <string>
 
 #include "autograd/node.h"
 #include "tensor/fused/gelu_tanh.h"
-#include "tensor/ops.h"
 #include "tensor/parallel.h"
+#include "tensor/rng.h"
 
 namespace t2m::ag {
 
@@ -37,6 +39,32 @@ void silu_backward(T* dx, const T* g, const T* x, int64_t n) {
     const T s = (T)1 / ((T)1 + std::exp(-x[i]));
     dx[i] = g[i] * s * ((T)1 + x[i] * ((T)1 - s));
   }
+}
+
+// One pass: keep[j] = (u_j < pkeep) with u_j the rand_bernoulli uniform of element j (Philox block base + j/4,
+// word j%4); y[j] = keep[j] ? x[j] * scale : 0. Blocks are independent, so any thread split gives the same mask.
+template <typename T>
+void dropout_forward(T* y, uint8_t* keep, const T* x, int64_t n, uint64_t seed, uint64_t base, double pkeep,
+                     T scale) {
+  const int64_t nb = (n + 3) / 4;
+  constexpr double k2m32 = 1.0 / 4294967296.0;
+#pragma omp parallel for schedule(static) num_threads(threads_for(n))
+  for (int64_t b = 0; b < nb; ++b) {
+    uint32_t w[4];
+    philox4x32(seed, base + (uint64_t)b, w);
+    for (int64_t i = 0, j = 4 * b; i < 4 && j < n; ++i, ++j) {
+      const bool k = (double)w[i] * k2m32 < pkeep;
+      keep[j] = k;
+      y[j] = k ? x[j] * scale : (T)0;
+    }
+  }
+}
+
+// dx[j] = keep[j] ? g[j] * scale : 0
+template <typename T>
+void dropout_backward(T* dx, const T* g, const uint8_t* keep, int64_t n, T scale) {
+#pragma omp parallel for schedule(static) num_threads(threads_for(n))
+  for (int64_t j = 0; j < n; ++j) dx[j] = keep[j] ? g[j] * scale : (T)0;
 }
 
 }  // namespace
@@ -89,17 +117,36 @@ Variable silu(const Variable& x) {
   });
 }
 
-// x (n) -> y (n) = x * m, m = bernoulli(1 - p) / (1 - p); m saved.  dx = g * m.
+// x (n) -> y (n) = x * keep / (1 - p); the keep mask (one byte per element, allocator memory) saved.
+// dx = g * keep / (1 - p).
 Variable dropout(const Variable& x, double p, Generator& gen, bool training) {
   check_float("dropout", x);
   if (!(p >= 0.0 && p <= 1.0))
     throw Error("dropout: p must be in [0, 1], got " + std::to_string(p) + " (x " + shape_str(x.shape()) + ")");
   if (!training || p == 0.0) return x;
-  Tensor mask = rand_bernoulli(x.shape(), gen, 1.0 - p, x.dtype());
-  mul_(mask, p < 1.0 ? 1.0 / (1.0 - p) : 0.0);
-  Tensor y = mul(x.data(), mask);
-  return record("dropout", y, {x}, [mask](const Tensor& g, const std::vector<bool>&) {
-    return std::vector<Tensor>{mul(g, mask)};
+  const Tensor xc = x.data().contiguous();
+  const int64_t n = xc.numel();
+  const uint64_t base = gen.advance((uint64_t)(n + 3) / 4);  // as rand_bernoulli draws it
+  const double scale = p < 1.0 ? 1.0 / (1.0 - p) : 0.0;
+  auto keep = std::make_shared<Storage>((size_t)(n > 0 ? n : 1));
+  uint8_t* km = static_cast<uint8_t*>(keep->data);
+  Tensor y = Tensor::empty(xc.shape(), xc.dtype());
+  if (n > 0) {
+    if (xc.dtype() == DType::f32)
+      dropout_forward<float>(y.data<float>(), km, xc.data<float>(), n, gen.seed(), base, 1.0 - p, (float)scale);
+    else
+      dropout_forward<double>(y.data<double>(), km, xc.data<double>(), n, gen.seed(), base, 1.0 - p, scale);
+  }
+  return record("dropout", y, {x}, [keep, n, scale](const Tensor& grad, const std::vector<bool>&) {
+    const Tensor g = grad.contiguous();
+    Tensor dx = Tensor::empty(g.shape(), g.dtype());
+    const uint8_t* km = static_cast<const uint8_t*>(keep->data);
+    if (n == 0) return std::vector<Tensor>{dx};
+    if (g.dtype() == DType::f32)
+      dropout_backward<float>(dx.data<float>(), g.data<float>(), km, n, (float)scale);
+    else
+      dropout_backward<double>(dx.data<double>(), g.data<double>(), km, n, scale);
+    return std::vector<Tensor>{dx};
   });
 }
 

@@ -1,13 +1,15 @@
 // linear.cpp — forward/backward of y = x W^T + b on raw GEMMs over the flattened leading dims.
 #include "nn/linear.h"
 
+#include <omp.h>
+
 #include <cmath>
 #include <cstring>
 #include <string>
 
 #include "autograd/node.h"
 #include "tensor/gemm.h"
-#include "tensor/ops.h"
+#include "tensor/parallel.h"
 
 namespace t2m::nn {
 
@@ -29,10 +31,17 @@ void linear_bwd(T* dx, T* dw, T* db, const T* g, const T* x, const T* w, int64_t
   if (dx != nullptr) gemm(false, false, N, in, out, (T)1, g, out, w, in, (T)0, dx, in);
   if (dw != nullptr) gemm(true, false, out, in, N, (T)1, g, out, x, in, (T)0, dw, in);
   if (db != nullptr) {
-    for (int64_t j = 0; j < out; ++j) db[j] = 0;
-    for (int64_t n = 0; n < N; ++n) {
-      const T* gr = g + n * out;
-      for (int64_t j = 0; j < out; ++j) db[j] += gr[j];
+    // Columns split across threads; each column summed over rows in order (same result for any thread count).
+    const int nt = N * out < kParallelGrain || out < 64 ? 1 : get_num_threads();
+#pragma omp parallel num_threads(nt)
+    {
+      const int tid = omp_get_thread_num(), nth = omp_get_num_threads();
+      const int64_t j0 = out * tid / nth, j1 = out * (tid + 1) / nth;
+      for (int64_t j = j0; j < j1; ++j) db[j] = 0;
+      for (int64_t n = 0; n < N; ++n) {
+        const T* gr = g + n * out;
+        for (int64_t j = j0; j < j1; ++j) db[j] += gr[j];
+      }
     }
   }
 }

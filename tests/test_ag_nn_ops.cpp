@@ -256,6 +256,12 @@ TEST(AgDropout, MaskIsPhiloxBernoulliScaledAndDeterministic) {
   EXPECT_GT(max_abs_diff(ag::dropout(ag::Variable(x), 0.3, g3, true).data(), y.data()), 0.0);
   // The next call continues the stream: a different mask.
   EXPECT_GT(max_abs_diff(ag::dropout(ag::Variable(x), 0.3, g1, true).data(), y.data()), 0.0);
+  // A large float32 tensor (threaded path) gives the same mask as the serial Bernoulli draw.
+  const Tensor xl = randn({300, 301}, 38, DType::f32);
+  Generator gl(5), refl(5);
+  Tensor yl = ag::dropout(ag::Variable(xl), 0.1, gl, true).data();
+  const Tensor keepl = rand_bernoulli({300, 301}, refl, 0.9, DType::f32);
+  EXPECT_EQ(max_abs_diff(yl, mul(xl, mul(keepl, 1.0 / 0.9))), 0.0);
 }
 
 TEST(AgDropout, EvalIdentityGradientAndEdgeCases) {

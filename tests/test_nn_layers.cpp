@@ -161,6 +161,17 @@ TEST(NnLinear, BackwardFillsParameterGradsAndAccumulates) {
   ag::sum(lin(x)).backward();
   EXPECT_EQ(lin.bias().grad().to_vector<double>(), (std::vector<double>{8.0, 8.0}));
   EXPECT_FALSE(x.grad().defined());
+  // Large enough for the threaded bias reduction: dW = g^T x, db = column sums of g, dx = g W.
+  Generator gb(5);
+  nn::Linear big(32, 128, true, gb);
+  big.to(DType::f64);
+  ag::Variable xb(randn({3, 200, 32}, 7), true);
+  const Tensor seed = randn({3, 200, 128}, 8);
+  big(xb).backward(seed);
+  const Tensor g2 = seed.view({600, 128}), x2 = xb.data().view({600, 32});
+  EXPECT_LT(max_abs_diff(big.bias().grad(), sum(g2, {0})), 1e-10);
+  EXPECT_LT(max_abs_diff(big.weight().grad(), matmul(g2.transpose(0, 1), x2)), 1e-10);
+  EXPECT_LT(max_abs_diff(xb.grad(), matmul(seed, big.weight().data())), 1e-10);
 }
 
 TEST(NnLinear, BadUseThrows) {
