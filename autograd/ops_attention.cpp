@@ -117,7 +117,8 @@ Variable rope(const Variable& x, int64_t pos0, double base) {
   const Tensor& xd = x.data();
   if (xd.dim() < 2 || xd.size(-1) % 2 != 0 || xd.size(-1) < 2)
     throw Error("rope: x must be (..., T, d) with an even d >= 2, got " + shape_str(xd.shape()));
-  if (!is_float(xd.dtype())) throw Error(std::string("rope: x must be float32 or float64, got ") + dtype_name(xd.dtype()));
+  if (!is_float(xd.dtype()))
+    throw Error(std::string("rope: x must be float32 or float64, got ") + dtype_name(xd.dtype()));
   if (pos0 < 0) throw Error("rope: pos0 must be >= 0, got " + std::to_string(pos0));
   if (!(base > 0.0)) throw Error("rope: base must be > 0, got " + std::to_string(base));
   Tensor out = rope_rotate(xd.contiguous(), pos0, base, /*inverse=*/false);

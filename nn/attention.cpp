@@ -65,7 +65,8 @@ ag::Variable MultiheadAttention::forward_cross(const ag::Variable& x, const ag::
   check_x("forward_cross", x, cfg_.dim);
   if (ctx.dim() != 3 || ctx.size(2) != cfg_.ctx_dim || ctx.size(0) != x.size(0))
     throw Error("MultiheadAttention.forward_cross: ctx must be (" + std::to_string(x.size(0)) + ", S, " +
-                std::to_string(cfg_.ctx_dim) + "), got " + shape_str(ctx.shape()) + " (x " + shape_str(x.shape()) + ")");
+                std::to_string(cfg_.ctx_dim) + "), got " + shape_str(ctx.shape()) + " (x " + shape_str(x.shape()) +
+                ")");
   ag::MhaOptions o;
   o.heads = cfg_.heads;
   o.norm_eps = cfg_.norm_eps;

@@ -119,7 +119,8 @@ TEST(AgAttention, GradcheckPlainMaskCausalCross) {
   expect_gradcheck(f(key_mask(2, 3), false), {randn(s, 14), randn(s, 15), randn(s, 16)});
   expect_gradcheck(f(Tensor(), true), {randn(s, 17), randn(s, 18), randn(s, 19)});
   expect_gradcheck(f(key_mask(2, 3), true), {randn(s, 20), randn(s, 21), randn(s, 22)});
-  expect_gradcheck(f(key_mask(2, 5), false), {randn({2, 1, 2, 3}, 23), randn({2, 1, 5, 3}, 24), randn({2, 1, 5, 3}, 25)});
+  expect_gradcheck(f(key_mask(2, 5), false),
+                   {randn({2, 1, 2, 3}, 23), randn({2, 1, 5, 3}, 24), randn({2, 1, 5, 3}, 25)});
 }
 
 TEST(AgAttention, GradcheckStridedInputs) {

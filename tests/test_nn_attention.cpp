@@ -76,7 +76,8 @@ std::vector<double> naive_linear(const Tensor& x, const Tensor& W, const Tensor&
 }
 
 // The module computed naively from torch_ref.py's code, per element, in double.
-Tensor naive_mha(const nn::MultiheadAttention& m, const Tensor& x, const Tensor& ctx, const Tensor& mask, int64_t pos0) {
+Tensor naive_mha(const nn::MultiheadAttention& m, const Tensor& x, const Tensor& ctx, const Tensor& mask,
+                 int64_t pos0) {
   const auto& c = m.config();
   const int64_t B = x.size(0), T = x.size(1), D = c.dim, H = c.heads, d = D / H;
   const Tensor& src = c.cross ? ctx : x;
@@ -237,10 +238,12 @@ TEST(NnAttention, CausalModuleIgnoresTheFuture) {
 
 TEST(NnAttention, BadUseThrows) {
   Generator g(13);
-  expect_error([&] { nn::MultiheadAttention({.dim = 10, .heads = 3}, g); }, {"MultiheadAttention", "divisible", "dim 10"});
+  expect_error([&] { nn::MultiheadAttention({.dim = 10, .heads = 3}, g); },
+               {"MultiheadAttention", "divisible", "dim 10"});
   expect_error([&] { nn::MultiheadAttention({.dim = 8, .heads = 2, .cross = true, .rope = true}, g); },
                {"MultiheadAttention", "self-attention only"});
-  expect_error([&] { nn::MultiheadAttention({.dim = 6, .heads = 2, .rope = true}, g); }, {"MultiheadAttention", "even"});
+  expect_error([&] { nn::MultiheadAttention({.dim = 6, .heads = 2, .rope = true}, g); },
+               {"MultiheadAttention", "even"});
   nn::MultiheadAttention s({.dim = 8, .heads = 2}, g);
   nn::MultiheadAttention c({.dim = 8, .heads = 2, .cross = true, .ctx_dim = 5}, g);
   ag::Variable x(randn({1, 3, 8}, 1, DType::f32));
@@ -302,8 +305,8 @@ TEST(NnAdaLN, ModuleChunksAreSiluLinear) {
   ag::Variable cv(c, true);
   fd_check([&] {
     auto ch = ada.forward(cv);
-    return nn::modulate(nn::gated_residual(ag::Variable(randn({2, 2, 4}, 27)), ch[2], ag::Variable(randn({2, 2, 4}, 28))),
-                        ch[0], ch[1]);
+    ag::Variable r = nn::gated_residual(ag::Variable(randn({2, 2, 4}, 27)), ch[2], ag::Variable(randn({2, 2, 4}, 28)));
+    return nn::modulate(r, ch[0], ch[1]);
   }, params_and(ada, {cv}));
   ada.zero_init();
   for (auto& ch : ada.forward(cv)) EXPECT_EQ(t2m::sum(t2m::abs(ch.data())).item(), 0.0);

@@ -169,7 +169,8 @@ TEST(NnDiTBlock, MatchesTorchRefForwardAndGradients) {
 TEST(NnDiTBlock, MasksHideKeys) {
   Generator g(7);
   nn::DiTBlock blk({.dim = 8, .heads = 2, .ctx_dim = 4}, g);
-  const Tensor x = randn({1, 4, 8}, 8, DType::f32), c = randn({1, 8}, 9, DType::f32), ctx = randn({1, 3, 4}, 10, DType::f32);
+  const Tensor x = randn({1, 4, 8}, 8, DType::f32), c = randn({1, 8}, 9, DType::f32);
+  const Tensor ctx = randn({1, 3, 4}, 10, DType::f32);
   Tensor xm = Tensor::ones({1, 4}), cm = Tensor::ones({1, 3});
   xm.set({0, 3}, 0.0), cm.set({0, 2}, 0.0);
   Tensor x2 = x.clone(), ctx2 = ctx.clone();
