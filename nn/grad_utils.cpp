@@ -21,15 +21,18 @@ const Tensor* grad_ptr(const std::pair<std::string, ag::Variable>& kv, const cha
   return &g;
 }
 
-// Sum of squares in element order, four interleaved double accumulators (fixed order, so deterministic).
+// Sum of squares, 16 interleaved double accumulators (four AVX2 vectors: enough independent chains to hide the
+// add latency), combined in a fixed order, so deterministic.
 template <typename T>
 double sum_sq(const T* x, int64_t n) {
-  double a[4] = {0, 0, 0, 0};
+  double a[16] = {};
   int64_t i = 0;
-  for (; i + 4 <= n; i += 4)
-    for (int k = 0; k < 4; ++k) a[k] += (double)x[i + k] * (double)x[i + k];
-  for (; i < n; ++i) a[0] += (double)x[i] * (double)x[i];
-  return (a[0] + a[1]) + (a[2] + a[3]);
+  for (; i + 16 <= n; i += 16)
+    for (int k = 0; k < 16; ++k) a[k] += (double)x[i + k] * (double)x[i + k];
+  for (; i < n; ++i) a[i % 16] += (double)x[i] * (double)x[i];
+  for (int w = 8; w >= 1; w /= 2)
+    for (int k = 0; k < w; ++k) a[k] += a[k + w];
+  return a[0];
 }
 
 template <typename T>

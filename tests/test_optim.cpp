@@ -199,6 +199,28 @@ TEST(SGD, MomentumNesterovAndWeightDecayMatchNaiveReference) {
   expect_error([&] { nn::SGD s(ps, bad); }, {"SGD", "nesterov", "momentum=0"});
 }
 
+TEST(SGD, MomentumStateRoundTripContinuesIdentically) {
+  nn::SGDOptions o;
+  o.lr = 0.1; o.momentum = 0.9; o.nesterov = true;
+  NamedParams a = make_params({{3, 2}, {2}}, DType::f32, 21), b = make_params({{3, 2}, {2}}, DType::f32, 22);
+  nn::SGD sa(a, o), sb(b, o);
+  Generator g(23);
+  for (int t = 0; t < 3; ++t) { set_grads(a, g); sa.step(); }
+  nn::Checkpoint ck;
+  for (auto& [n, v] : a) ck.put("model." + n, v.data());
+  sa.save_to(ck, "sgd.");
+  for (auto& [n, v] : b) v.data().copy_(ck.get("model." + n));
+  sb.load_from(ck, "sgd.");
+  EXPECT_EQ(sb.step_count(), 3);
+  Generator g1(24), g2(24);
+  set_grads(a, g1); sa.step();
+  set_grads(b, g2); sb.step();
+  for (size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].second.data().to_vector<float>(), b[i].second.data().to_vector<float>());
+    EXPECT_EQ(sa.state("momentum_buffer", i).to_vector<float>(), sb.state("momentum_buffer", i).to_vector<float>());
+  }
+}
+
 TEST(SGD, Float32MomentumFirstStepUsesTheGradient) {
   NamedParams ps{{"w", ag::Variable::parameter(Tensor::from_vector(std::vector<float>{1, 2}, {2}))}};
   nn::SGDOptions o;
