@@ -5,6 +5,8 @@
 //   b <- mu b + (1 - dampening) g   afterwards
 //   d <- g + mu b  (nesterov)  or  b  (momentum > 0)  or  g  (momentum == 0)
 //   p <- p - lr d
+// "First update" is the optimizer's (step_count() == 0), not per parameter as in torch: a parameter without a grad
+// on the first step later starts from b = 0, which differs from torch only when dampening != 0.
 // Loops over each parameter in element order (float32 or float64; arithmetic in the parameter's type).
 // State slot "momentum_buffer"; save/check/load as in nn/optim.h.
 // Errors (t2m::Error "SGD: ..."): momentum or dampening outside [0, 1], weight_decay < 0, nesterov with
