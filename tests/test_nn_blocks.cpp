@@ -7,6 +7,7 @@
 #include <cmath>
 #include <functional>
 
+#include "autograd/no_grad.h"
 #include "autograd/ops_elementwise.h"
 #include "autograd/ops_join.h"
 #include "autograd/ops_linalg.h"
@@ -234,4 +235,18 @@ TEST(NnDiTBlock, Float32AgreesWithFloat64) {
     const double gs = t2m::amax(t2m::abs(g64)).item();
     EXPECT_LT(max_abs_diff(p32[i].second.grad().to(DType::f64), g64), 1e-4 * gs + 1e-6) << p32[i].first;
   }
+}
+
+TEST(NnDiTBlock, InferenceUnderNoGradRecordsNothing) {
+  Generator g(40);
+  nn::DiTBlock blk({.dim = 8, .heads = 2, .ctx_dim = 4}, g);
+  const Tensor x = randn({2, 3, 8}, 41, DType::f32), c = randn({2, 8}, 42, DType::f32);
+  const Tensor ctx = randn({2, 5, 4}, 43, DType::f32);
+  ag::Variable with = blk.forward(ag::Variable(x), ag::Variable(c), ag::Variable(ctx));
+  EXPECT_TRUE(with.grad_fn() != nullptr);  // the parameters require grad
+  ag::NoGradGuard guard;
+  ag::Variable without = blk.forward(ag::Variable(x), ag::Variable(c), ag::Variable(ctx));
+  EXPECT_TRUE(without.grad_fn() == nullptr);
+  EXPECT_FALSE(without.requires_grad());
+  EXPECT_EQ(max_abs_diff(with.data(), without.data()), 0.0);
 }
