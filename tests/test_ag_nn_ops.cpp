@@ -408,3 +408,27 @@ TEST(AgEmbedding, BadUseThrows) {
   expect_error([&] { ag::embedding(ag::Variable(randn({5}, 1)), Tensor::zeros({2}, DType::i64)); },
                {"embedding", "[5]"});
 }
+
+TEST(AgConv, OnlyRequestedGradientsAndEmptyBatch) {
+  // x constant: only the weight/bias gradients; weight constant: only dx (which equals the full computation's).
+  const Tensor xt = randn({2, 3, 6}, 70), wt = randn({4, 3, 3}, 71), bt = randn({4}, 72);
+  ag::Variable x1(xt), w1(wt, true), b1(bt, true);
+  ag::sum(ag::conv1d(x1, w1, b1, 1, 2, ag::Conv1dPadding::causal())).backward();
+  EXPECT_FALSE(x1.grad().defined());
+  ag::Variable x2(xt, true), w2(wt), b2(bt);
+  ag::sum(ag::conv1d(x2, w2, b2, 1, 2, ag::Conv1dPadding::causal())).backward();
+  EXPECT_FALSE(w2.grad().defined());
+  ag::Variable x3(xt, true), w3(wt, true), b3(bt, true);
+  ag::sum(ag::conv1d(x3, w3, b3, 1, 2, ag::Conv1dPadding::causal())).backward();
+  EXPECT_EQ(max_abs_diff(x2.grad(), x3.grad()), 0.0);
+  EXPECT_EQ(max_abs_diff(w1.grad(), w3.grad()), 0.0);
+  EXPECT_EQ(max_abs_diff(b1.grad(), b3.grad()), 0.0);
+  // B = 0: an empty output of the right shape, zero parameter gradients.
+  ag::Variable xe(Tensor::zeros({0, 3, 6}, DType::f64), true);
+  ag::Variable ye = ag::conv1d(xe, w3, b3, 2, 1, ag::Conv1dPadding::zeros(1, 2));
+  EXPECT_EQ(ye.shape(), (Shape{0, 4, 4}));
+  w3.zero_grad();
+  ag::sum(ye).backward();
+  EXPECT_EQ(amax(abs(w3.grad())).item(), 0.0);
+  EXPECT_EQ(xe.grad().shape(), (Shape{0, 3, 6}));
+}
