@@ -1,6 +1,7 @@
 // ops_mha.cpp — forward/backward of the multi-head attention core over the fused kernels.
 // Forward:  gather heads (B,T,W)->(B,H,T,d) | rms_norm q,k | rope q,k (in place) | attention | merge heads.
-// Backward: gather g | attention_backward | rope_backward (in place) | rms_norm_backward | scatter into d(src).
+// Backward: gather g | (QK-norm: recompute normed+rotated q,k) | attention_backward | rope_backward (in place) |
+//           rms_norm_backward | scatter into d(src).
 #include "autograd/ops_mha.h"
 
 #include <cstring>
@@ -49,7 +50,8 @@ struct Sources {
   int64_t qcol = 0, kcol = 0, vcol = 0;
 };
 
-// Everything the backward needs.
+// Everything the backward needs. With QK-norm only the pre-norm heads are kept: the normed and rotated q/k
+// (as large again) are recomputed in the backward by the same kernels, so they come out bit-identical.
 struct Saved {
   fused::AttentionShape s;
   bool norm = false, rope = false;
@@ -57,9 +59,24 @@ struct Saved {
   double base = 10000.0;
   double rstd_eps = 1e-6;                    // QK RMS-norm epsilon
   Tensor qh, kh, rstd_q, rstd_k, qn_w, kn_w;  // pre-norm heads, their rstd, norm weights (norm only)
-  Tensor qr, kr, v, att;                     // attention operands (normed and rotated q/k) and probabilities
+  Tensor qr, kr;                             // rotated q/k (no norm only; else recomputed)
+  Tensor v, att;                             // values and the probabilities
   Tensor cos_tab, sin_tab;                   // rope tables (rope only)
 };
+
+// q, k (B,H,T,d) as the attention sees them: RMS-norm of the pre-norm heads qh/kh (rstd written), then RoPE.
+template <typename T>
+void normed_rotated(Tensor& q, Tensor& k, T* rstd_q, T* rstd_k, const Saved& sv) {
+  const fused::AttentionShape& s = sv.s;
+  const int64_t BH = s.B * s.H, d = s.d;
+  q = Tensor::empty(sv.qh.shape(), sv.qh.dtype()), k = Tensor::empty(sv.kh.shape(), sv.kh.dtype());
+  fused::rms_norm_forward<T>(q.data<T>(), rstd_q, sv.qh.data<T>(), sv.qn_w.data<T>(), BH * s.Tq, d, (T)sv.rstd_eps);
+  fused::rms_norm_forward<T>(k.data<T>(), rstd_k, sv.kh.data<T>(), sv.kn_w.data<T>(), BH * s.Tk, d, (T)sv.rstd_eps);
+  if (sv.rope) {
+    fused::rope_forward<T>(q.data<T>(), q.data<T>(), sv.cos_tab.data<T>(), sv.sin_tab.data<T>(), BH, s.Tq, d);
+    fused::rope_forward<T>(k.data<T>(), k.data<T>(), sv.cos_tab.data<T>(), sv.sin_tab.data<T>(), BH, s.Tk, d);
+  }
+}
 
 template <typename T>
 Tensor forward_impl(const Sources& src, const Tensor& qn_w, const Tensor& kn_w, const Tensor& mask, Saved& sv) {
@@ -71,22 +88,21 @@ Tensor forward_impl(const Sources& src, const Tensor& qn_w, const Tensor& kn_w, 
   gather_heads<T>(q.data<T>(), src.q.data<T>(), B, Tq, Wq, src.qcol, H, d);
   gather_heads<T>(k.data<T>(), src.k.data<T>(), B, Tk, Wk, src.kcol, H, d);
   gather_heads<T>(sv.v.data<T>(), src.v.data<T>(), B, Tk, src.v.size(2), src.vcol, H, d);
-  if (sv.norm) {
-    sv.qh = q, sv.kh = k, sv.qn_w = qn_w, sv.kn_w = kn_w;
-    q = Tensor::empty(q.shape(), dt), k = Tensor::empty(k.shape(), dt);
-    sv.rstd_q = Tensor::empty({B * H * Tq}, dt), sv.rstd_k = Tensor::empty({B * H * Tk}, dt);
-    fused::rms_norm_forward<T>(q.data<T>(), sv.rstd_q.data<T>(), sv.qh.data<T>(), qn_w.data<T>(), B * H * Tq, d,
-                               (T)sv.rstd_eps);
-    fused::rms_norm_forward<T>(k.data<T>(), sv.rstd_k.data<T>(), sv.kh.data<T>(), kn_w.data<T>(), B * H * Tk, d,
-                               (T)sv.rstd_eps);
-  }
   if (sv.rope) {  // self-attention: Tq == Tk, one table
     sv.cos_tab = Tensor::empty({Tq, d / 2}, dt), sv.sin_tab = Tensor::empty({Tq, d / 2}, dt);
     fused::rope_table<T>(sv.cos_tab.data<T>(), sv.sin_tab.data<T>(), Tq, d, sv.base, sv.pos0);
-    fused::rope_forward<T>(q.data<T>(), q.data<T>(), sv.cos_tab.data<T>(), sv.sin_tab.data<T>(), B * H, Tq, d);
-    fused::rope_forward<T>(k.data<T>(), k.data<T>(), sv.cos_tab.data<T>(), sv.sin_tab.data<T>(), B * H, Tk, d);
   }
-  sv.qr = q, sv.kr = k;
+  if (sv.norm) {
+    sv.qh = q, sv.kh = k, sv.qn_w = qn_w, sv.kn_w = kn_w;
+    sv.rstd_q = Tensor::empty({B * H * Tq}, dt), sv.rstd_k = Tensor::empty({B * H * Tk}, dt);
+    normed_rotated<T>(q, k, sv.rstd_q.data<T>(), sv.rstd_k.data<T>(), sv);
+  } else {
+    if (sv.rope) {
+      fused::rope_forward<T>(q.data<T>(), q.data<T>(), sv.cos_tab.data<T>(), sv.sin_tab.data<T>(), B * H, Tq, d);
+      fused::rope_forward<T>(k.data<T>(), k.data<T>(), sv.cos_tab.data<T>(), sv.sin_tab.data<T>(), B * H, Tk, d);
+    }
+    sv.qr = q, sv.kr = k;
+  }
   sv.att = Tensor::empty({B, H, Tq, Tk}, dt);
   Tensor o = Tensor::empty({B, H, Tq, d}, dt);
   fused::attention_forward<T>(o.data<T>(), sv.att.data<T>(), q.data<T>(), k.data<T>(), sv.v.data<T>(),
@@ -115,8 +131,13 @@ HeadGrads backward_impl(const Tensor& g, const Saved& sv, bool want_q, bool want
   Tensor dkr = need_dk ? Tensor::empty({B, H, Tk, d}, dt) : Tensor();
   if (want_v) r.dv = Tensor::empty({B, H, Tk, d}, dt);
   auto ptr = [](const Tensor& t) { return t.defined() ? const_cast<Tensor&>(t).data<T>() : nullptr; };
-  fused::attention_backward<T>(ptr(dqr), ptr(dkr), ptr(r.dv), go.data<T>(), sv.att.data<T>(), sv.qr.data<T>(),
-                               sv.kr.data<T>(), sv.v.data<T>(), s);
+  Tensor qr = sv.qr, kr = sv.kr;
+  if (sv.norm) {  // recompute what the forward fed the attention (rstd scratch: identical values, not needed)
+    Tensor rq = Tensor::empty({B * H * Tq}, dt), rk = Tensor::empty({B * H * Tk}, dt);
+    normed_rotated<T>(qr, kr, rq.data<T>(), rk.data<T>(), sv);
+  }
+  fused::attention_backward<T>(ptr(dqr), ptr(dkr), ptr(r.dv), go.data<T>(), sv.att.data<T>(), qr.data<T>(),
+                               kr.data<T>(), sv.v.data<T>(), s);
   if (sv.rope) {
     if (need_dq) fused::rope_backward<T>(ptr(dqr), ptr(dqr), sv.cos_tab.data<T>(), sv.sin_tab.data<T>(), B * H, Tq, d);
     if (need_dk) fused::rope_backward<T>(ptr(dkr), ptr(dkr), sv.cos_tab.data<T>(), sv.sin_tab.data<T>(), B * H, Tk, d);
