@@ -10,6 +10,7 @@
 #include "tensor/fused/group_norm.h"
 #include "tensor/fused/layer_norm.h"
 #include "tensor/fused/rms_norm.h"
+#include "tensor/parallel.h"
 
 namespace t2m::ag {
 
@@ -145,46 +146,92 @@ Variable rms_norm(const Variable& x, const Variable& weight, double eps) {
   });
 }
 
-// x (B, C, T) -> out (B, C, T); mean/rstd (B, G) saved.
-Variable group_norm(const Variable& x, int64_t groups, const Variable& weight, const Variable& bias, double eps) {
+namespace {
+
+// In place y = max(y, 0).
+template <typename T>
+void relu_inplace(T* y, int64_t n) {
+  const int nt = n < kParallelGrain ? 1 : get_num_threads();
+#pragma omp parallel for schedule(static) num_threads(nt)
+  for (int64_t i = 0; i < n; ++i) y[i] = y[i] > (T)0 ? y[i] : (T)0;
+}
+
+// gm = g where y > 0, else 0.
+template <typename T>
+void relu_mask(T* gm, const T* g, const T* y, int64_t n) {
+  const int nt = n < kParallelGrain ? 1 : get_num_threads();
+#pragma omp parallel for schedule(static) num_threads(nt)
+  for (int64_t i = 0; i < n; ++i) gm[i] = y[i] > (T)0 ? g[i] : (T)0;
+}
+
+// Shared by group_norm and group_norm_relu. x (B, C, T) -> out (B, C, T); mean/rstd (B, G) saved, and with
+// relu the (post-ReLU) output as the gradient mask.
+Variable group_norm_op(const char* op, const Variable& x, int64_t groups, const Variable& weight,
+                       const Variable& bias, double eps, bool relu) {
   if ((x.dim() != 3 && x.dim() != 2) || x.size(1) < 1 || (x.dim() == 3 && x.size(2) < 1))
-    throw Error("group_norm: x must be (B, C, T) or (B, C) with C, T >= 1, got " + shape_str(x.shape()));
+    throw Error(std::string(op) + ": x must be (B, C, T) or (B, C) with C, T >= 1, got " + shape_str(x.shape()));
   const int64_t B = x.size(0), C = x.size(1), Tl = x.dim() == 3 ? x.size(2) : 1;
   if (groups < 1 || C % groups != 0)
-    throw Error("group_norm: C = " + std::to_string(C) + " must be divisible by groups = " + std::to_string(groups) +
-                " (x " + shape_str(x.shape()) + ")");
-  check_eps("group_norm", eps);
+    throw Error(std::string(op) + ": C = " + std::to_string(C) + " must be divisible by groups = " +
+                std::to_string(groups) + " (x " + shape_str(x.shape()) + ")");
+  check_eps(op, eps);
   std::vector<Variable> vars;
-  const NormInputs in = norm_inputs("group_norm", x, weight, bias, C, vars);
+  const NormInputs in = norm_inputs(op, x, weight, bias, C, vars);
   const Tensor xc = x.data().contiguous();
   const DType dt = xc.dtype();
-  const int64_t G = groups;
+  const int64_t G = groups, n = xc.numel();
   Tensor out = Tensor::empty(xc.shape(), dt), mean = Tensor::empty({B, G}, dt), rstd = Tensor::empty({B, G}, dt);
-  if (xc.numel() == 0) {
-    // zero rows: nothing to normalise
-  } else if (dt == DType::f32)
+  if (n == 0) {
+    // zero batch: nothing to normalise
+  } else if (dt == DType::f32) {
     fused::group_norm_forward<float>(out.data<float>(), mean.data<float>(), rstd.data<float>(), xc.data<float>(),
                                      cptr<float>(in.w), cptr<float>(in.b), B, C, Tl, G, (float)eps);
-  else
+    if (relu) relu_inplace<float>(out.data<float>(), n);
+  } else {
     fused::group_norm_forward<double>(out.data<double>(), mean.data<double>(), rstd.data<double>(),
                                       xc.data<double>(), cptr<double>(in.w), cptr<double>(in.b), B, C, Tl, G, eps);
-  return record("group_norm", out, vars,
-                [in, xc, mean, rstd, B, C, Tl, G](const Tensor& grad, const std::vector<bool>& need) {
-                  const Tensor g = grad.contiguous();
+    if (relu) relu_inplace<double>(out.data<double>(), n);
+  }
+  const Tensor mask = relu ? out : Tensor();
+  return record(op, out, vars,
+                [in, xc, mean, rstd, mask, B, C, Tl, G, n](const Tensor& grad, const std::vector<bool>& need) {
+                  Tensor g = grad.contiguous();
                   Tensor dw, db;
                   param_grads(in, need, dw, db);
-                  Tensor dx = Tensor::empty(xc.shape(), xc.dtype());  // the kernels always write dinp
-                  if (xc.numel() == 0) return pack_grads(in, dx, dw, db);
-                  if (g.dtype() == DType::f32)
+                  Tensor dx = Tensor::empty(xc.shape(), xc.dtype());  // the kernel always writes dinp
+                  if (n == 0) return pack_grads(in, dx, dw, db);
+                  if (g.dtype() == DType::f32) {
+                    if (mask.defined()) {
+                      Tensor gm = Tensor::empty(g.shape(), g.dtype());
+                      relu_mask<float>(gm.data<float>(), g.data<float>(), mask.data<float>(), n);
+                      g = gm;
+                    }
                     fused::group_norm_backward<float>(mptr<float>(dx), mptr<float>(dw), mptr<float>(db),
                                                       g.data<float>(), xc.data<float>(), cptr<float>(in.w),
                                                       mean.data<float>(), rstd.data<float>(), B, C, Tl, G);
-                  else
+                  } else {
+                    if (mask.defined()) {
+                      Tensor gm = Tensor::empty(g.shape(), g.dtype());
+                      relu_mask<double>(gm.data<double>(), g.data<double>(), mask.data<double>(), n);
+                      g = gm;
+                    }
                     fused::group_norm_backward<double>(mptr<double>(dx), mptr<double>(dw), mptr<double>(db),
                                                        g.data<double>(), xc.data<double>(), cptr<double>(in.w),
                                                        mean.data<double>(), rstd.data<double>(), B, C, Tl, G);
+                  }
                   return pack_grads(in, dx, dw, db);
                 });
+}
+
+}  // namespace
+
+Variable group_norm(const Variable& x, int64_t groups, const Variable& weight, const Variable& bias, double eps) {
+  return group_norm_op("group_norm", x, groups, weight, bias, eps, /*relu=*/false);
+}
+
+Variable group_norm_relu(const Variable& x, int64_t groups, const Variable& weight, const Variable& bias,
+                         double eps) {
+  return group_norm_op("group_norm_relu", x, groups, weight, bias, eps, /*relu=*/true);
 }
 
 }  // namespace t2m::ag

@@ -9,6 +9,9 @@
 // group_norm(x, groups, weight, bias, eps): GroupNorm (Wu & He 2018) over channel-first activations.
 //   x (B, C, T) (or (B, C): T = 1); C divisible by groups; weight, bias (C) or undefined. Statistics over the
 //   C/groups channels x T frames of each (batch, group).
+// group_norm_relu(...) = relu(group_norm(...)) as one op: the ReLU is applied in place on the normalised output
+//   and the backward masks the gradient by (out > 0) before the GroupNorm backward, so no separate ReLU tensor
+//   is kept (the VBB residual block's GroupNorm -> ReLU). relu'(0) = 0 as in ag::relu.
 //
 // Inputs of any strides are accepted (copied to contiguous once when needed); outputs are fresh contiguous
 // tensors. The node keeps the contiguous input, the per-row mean/rstd and the weight.
@@ -25,5 +28,7 @@ Variable layer_norm(const Variable& x, const Variable& weight, const Variable& b
 Variable rms_norm(const Variable& x, const Variable& weight, double eps = 1e-6);
 Variable group_norm(const Variable& x, int64_t groups, const Variable& weight, const Variable& bias,
                     double eps = 1e-5);
+Variable group_norm_relu(const Variable& x, int64_t groups, const Variable& weight, const Variable& bias,
+                         double eps = 1e-5);
 
 }  // namespace t2m::ag

@@ -45,4 +45,8 @@ ag::Variable GroupNorm::forward(const ag::Variable& x) const {
   return ag::group_norm(x, groups_, weight_, bias_, eps_);
 }
 
+ag::Variable GroupNorm::forward_relu(const ag::Variable& x) const {
+  return ag::group_norm_relu(x, groups_, weight_, bias_, eps_);
+}
+
 }  // namespace t2m::nn

@@ -4,6 +4,7 @@
 //   is on, "bias" (C) = 0 (PyTorch's init); without affine, no parameters.
 // RMSNorm(C, affine, eps): over the last dim; with affine a "weight" (C) = 1.
 // GroupNorm(groups, C, affine, eps): x (B, C, T); "weight" (C) = 1 and "bias" (C) = 0 with affine.
+//   forward_relu(x) = relu(forward(x)) as one fused op (ag::group_norm_relu).
 // Errors: C < 1, groups < 1 or C not divisible by groups at construction; shape errors from the ops at forward.
 #pragma once
 #include <cstdint>
@@ -46,6 +47,7 @@ class GroupNorm : public Module {
  public:
   GroupNorm(int64_t groups, int64_t C, bool affine = true, double eps = 1e-5);
   ag::Variable forward(const ag::Variable& x) const;
+  ag::Variable forward_relu(const ag::Variable& x) const;
   ag::Variable operator()(const ag::Variable& x) const { return forward(x); }
   const ag::Variable& weight() const { return weight_; }
   const ag::Variable& bias() const { return bias_; }

@@ -1,9 +1,8 @@
 // res_conv_block.cpp — GroupNorm -> ReLU -> causal dilated conv k3 -> GroupNorm -> ReLU -> conv k1 -> dropout,
-// plus the skip connection.
+// plus the skip connection (each GroupNorm -> ReLU is one fused op).
 #include "nn/res_conv_block.h"
 
 #include "autograd/ops_elementwise.h"
-#include "autograd/ops_unary.h"
 
 namespace t2m::nn {
 
@@ -20,8 +19,8 @@ ResConvBlock::ResConvBlock(int64_t channels, int64_t dilation, Generator& gen, i
 }
 
 ag::Variable ResConvBlock::forward(const ag::Variable& x, Generator& gen) const {
-  ag::Variable h = c1_->forward(ag::relu(n1_->forward(x)));
-  h = c2_->forward(ag::relu(n2_->forward(h)));
+  ag::Variable h = c1_->forward(n1_->forward_relu(x));
+  h = c2_->forward(n2_->forward_relu(h));
   return ag::add(x, drop_->forward(h, gen));
 }
 

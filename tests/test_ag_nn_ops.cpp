@@ -184,6 +184,27 @@ TEST(AgNorm, GroupNormMatchesNaiveAndGradcheck) {
   }, {randn({1, 4, 6}, 22)});
 }
 
+TEST(AgNorm, GroupNormReluMatchesComposedAndGradcheck) {
+  const Tensor x = randn({2, 6, 5}, 90), w = randn({6}, 91), b = randn({6}, 92);
+  Tensor want = relu(naive_group_norm(x, 3, w, b, 1e-5));
+  Tensor got = ag::group_norm_relu(ag::Variable(x), 3, ag::Variable(w), ag::Variable(b), 1e-5).data();
+  EXPECT_LT(max_abs_diff(got, want), 1e-12);
+  EXPECT_GT(sum(eq(got, Tensor::zeros({1}, DType::f64))).item(), 10.0);  // the ReLU is active somewhere
+  // Gradients equal those of the unfused composition (float32, threaded sizes).
+  const Tensor xl = randn({4, 64, 200}, 93, DType::f32), wl = randn({64}, 94, DType::f32), bl = randn({64}, 95, DType::f32);
+  const Tensor seed = randn({4, 64, 200}, 96, DType::f32);
+  ag::Variable x1(xl, true), w1(wl, true), b1(bl, true), x2(xl, true), w2(wl, true), b2(bl, true);
+  ag::group_norm_relu(x1, 8, w1, b1).backward(seed);
+  ag::relu(ag::group_norm(x2, 8, w2, b2)).backward(seed);
+  EXPECT_EQ(max_abs_diff(x1.grad(), x2.grad()), 0.0);
+  EXPECT_EQ(max_abs_diff(w1.grad(), w2.grad()), 0.0);
+  EXPECT_EQ(max_abs_diff(b1.grad(), b2.grad()), 0.0);
+  expect_gradcheck([](const std::vector<ag::Variable>& v) { return ag::group_norm_relu(v[0], 2, v[1], v[2], 1e-5); },
+                   {randn({2, 4, 3}, 97), randn({4}, 98), randn({4}, 99)});
+  expect_error([] { ag::group_norm_relu(ag::Variable(randn({2, 6, 3}, 1)), 4, ag::Variable(), ag::Variable()); },
+               {"group_norm_relu", "groups = 4"});
+}
+
 TEST(AgNorm, OnlyWeightGradientWhenInputIsConstant) {
   ag::Variable x(randn({4, 3}, 23)), w(randn({3}, 24), true), b(randn({3}, 25), true);
   ag::sum(ag::square(ag::layer_norm(x, w, b, 1e-5))).backward();
