@@ -20,8 +20,11 @@ bool is_float(DType d) { return d == DType::f32 || d == DType::f64; }
 // x (N, in), w (out, in), b (out) or null -> y (N, out) = x w^T + b: rows of y start as b, the GEMM adds on.
 template <typename T>
 void linear_fwd(T* y, const T* x, const T* w, const T* b, int64_t N, int64_t in, int64_t out) {
-  if (b != nullptr)
+  if (b != nullptr) {
+    const int nt = N * out < kParallelGrain ? 1 : get_num_threads();
+#pragma omp parallel for schedule(static) num_threads(nt)
     for (int64_t n = 0; n < N; ++n) std::memcpy(y + n * out, b, (size_t)out * sizeof(T));
+  }
   gemm(false, true, N, out, in, (T)1, x, in, w, in, b != nullptr ? (T)1 : (T)0, y, out);
 }
 
