@@ -147,8 +147,9 @@ Variable conv1d(const Variable& x, const Variable& weight, const Variable& bias,
   try {
     To = s.out_len();
   } catch (const Error& e) {
-    fail(std::string("invalid configuration: ") + e.what() + ", stride " + std::to_string(stride) + ", dilation " +
-         std::to_string(dilation));
+    std::string why = e.what();
+    if (why.rfind("conv1d: ", 0) == 0) why = why.substr(8);
+    fail(why + ", stride " + std::to_string(stride) + ", dilation " + std::to_string(dilation));
   }
   const Tensor xc = xin.data().contiguous(), wc = weight.data().contiguous();
   const Tensor bc = bias.defined() ? bias.data().contiguous() : Tensor();
