@@ -136,6 +136,10 @@ TEST(NnLinear, MatchesNaiveOnLeadingDims) {
   const Tensor xt = x.to(DType::f32).transpose(0, 1);  // (3, 2, 6), not contiguous
   Tensor y32 = lin32(ag::Variable(xt)).data();
   EXPECT_LT(max_abs_diff(y32.to(DType::f64), y.transpose(0, 1)), 1e-5);
+  // A 1-D input (in) gives a 1-D output (out), row 0 of the batched result.
+  Tensor y1 = lin(ag::Variable(x.select(0, 1).select(0, 2))).data();
+  ASSERT_EQ(y1.shape(), (Shape{4}));
+  EXPECT_LT(max_abs_diff(y1, y.select(0, 1).select(0, 2)), 1e-12);
 }
 
 TEST(NnLinear, GradcheckFloat64WithAndWithoutBias) {
