@@ -132,6 +132,11 @@ Tensor discount_vector(const Tensor& not_done, int64_t B, float discount) {
                 (not_done.defined() ? shape_str(not_done.shape()) : std::string("undefined")));
   return t2m::mul(not_done.reshape({B}), (double)discount);
 }
+
+const Tensor& checked_noise(const char* what, const Tensor& n, int64_t B, int64_t A) {
+  check_mat(what, n, B, A);
+  return n;
+}
 }  // namespace
 
 FbUpdateStats FbAgent::update_fb(const FbBatch& b, Generator& gen) {
@@ -143,7 +148,9 @@ FbUpdateStats FbAgent::update_fb(const FbBatch& b, Generator& gen) {
   check_mat("batch z", b.z, N, cfg_.z_dim);
   const Tensor gamma = discount_vector(b.not_done, N, cfg_.discount);
   const ag::Variable s(b.obs), a(b.action), s2(b.next_obs), z(b.z);
-  const Tensor noise = policy_noise({N, cfg_.action_dim}, cfg_.actor_std, cfg_.actor_clip, gen);
+  const Tensor noise = b.next_action_noise.defined()
+                           ? checked_noise("next_action_noise", b.next_action_noise, N, cfg_.action_dim)
+                           : policy_noise({N, cfg_.action_dim}, cfg_.actor_std, cfg_.actor_clip, gen);
   Tensor tM;
   {  // target successor measure: a' ~ pi(s', z), pess(F_t(s', a', z) B_t(s')^T)
     ag::NoGradGuard ng;
@@ -184,7 +191,9 @@ FbUpdateStats FbAgent::update_actor(const FbBatch& b, Generator& gen) {
     check_mat("batch bc_z", b.bc_z, b.bc_obs.size(0), cfg_.z_dim);
   }
   const ag::Variable s(b.obs), z(b.z);
-  const Tensor noise = policy_noise({N, cfg_.action_dim}, cfg_.actor_std, cfg_.actor_clip, gen);
+  const Tensor noise = b.action_noise.defined()
+                           ? checked_noise("action_noise", b.action_noise, N, cfg_.action_dim)
+                           : policy_noise({N, cfg_.action_dim}, cfg_.actor_std, cfg_.actor_clip, gen);
   clear_grads(*actor_);
   // F is evaluated but not trained here: no parameter gradient is computed for it (the anchor computes and
   // discards it).

@@ -91,6 +91,10 @@ struct FbBatch {
   Tensor bc_obs;     // [Bc, D]
   Tensor bc_action;  // [Bc, A]
   Tensor bc_z;       // [Bc, d]  the latent that explains the data action (e.g. Eq 2 on its reference window)
+  // Optional fixed policy noise (tests, PyTorch parity): when defined it replaces the draw from the Generator
+  // (already std-scaled and clipped), and the Generator is not advanced for it.
+  Tensor next_action_noise;  // [B, A]  FB step: a' = clamp(mu(s', z) + noise, -1, 1)
+  Tensor action_noise;       // [B, A]  actor step: a = clamp(mu(s, z) + noise, -1, 1)
 };
 
 struct FbUpdateStats {
