@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <utility>
 
 #include "tensor/tensor.h"
 
@@ -18,8 +19,8 @@ PdResult track_pd(Env& env, const QposTrajectory& ref, const PdOptions& opt) {
     throw Error("track_pd: reference has " + std::to_string(ref.frames) + " frames, nq " + std::to_string(ref.nq) +
                 ", nv " + std::to_string(ref.nv) + " (model nq " + std::to_string(m->nq) + ", nv " +
                 std::to_string(m->nv) + ")");
-  const int T = ref.frames, nu = m->nu, B = kNumJoints;
-  const std::vector<float> ref_pos = replay_joint_positions(h, ref);
+  const int T = ref.frames, nu = m->nu;
+  TrackingScorer score(h, ref, opt);
   // Per actuator: the joint's qpos / dof address and the feed-forward factor kd / kp.
   std::vector<int> qadr(nu), dadr(nu);
   std::vector<double> ff(nu), ctrl(nu);
@@ -30,19 +31,15 @@ PdResult track_pd(Env& env, const QposTrajectory& ref, const PdOptions& opt) {
     const double kp = m->actuator_gainprm[mjNGAIN * k];
     ff[k] = (opt.velocity_feedforward && kp > 0) ? m->dof_damping[dadr[k]] / kp : 0.0;
   }
-  PdResult r;
-  r.frames = T;
-  r.simulated.frames = T;
-  r.simulated.fps = ref.fps;
-  r.simulated.nq = m->nq;
-  r.simulated.nv = m->nv;
-  r.simulated.qpos.resize((size_t)T * m->nq);
-  r.simulated.qvel.resize((size_t)T * m->nv);
+  QposTrajectory sim;
+  sim.frames = T;
+  sim.fps = ref.fps;
+  sim.nq = m->nq;
+  sim.nv = m->nv;
+  sim.qpos.resize((size_t)T * m->nq);
+  sim.qvel.resize((size_t)T * m->nv);
   env.reset(ref.qpos.data(), ref.qvel.data(), nullptr);
-  double sum = 0;
-  bool failed = false;
   const mjData* d = env.data();
-  const auto& bodies = h.tracked_bodies();
   for (int t = 0; t < T; ++t) {
     if (t > 0) {
       const double* qr = ref.qpos.data() + (size_t)t * m->nq;
@@ -55,31 +52,58 @@ PdResult track_pd(Env& env, const QposTrajectory& ref, const PdOptions& opt) {
       }
       env.step_targets(ctrl.data(), nullptr);
     }
-    std::copy(d->qpos, d->qpos + m->nq, r.simulated.qpos.begin() + (size_t)t * m->nq);
-    std::copy(d->qvel, d->qvel + m->nv, r.simulated.qvel.begin() + (size_t)t * m->nv);
-    double frame_max = 0;
-    for (int j = 0; j < B; ++j) {
-      const double* p = d->xpos + 3 * bodies[j];
-      const float* q = ref_pos.data() + ((size_t)t * B + j) * 3;
-      const double e = std::sqrt((p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) +
-                                 (p[2] - q[2]) * (p[2] - q[2]));
-      frame_max = std::max(frame_max, e);
-      if (t > 0) sum += e;
-    }
-    if (!std::isfinite(frame_max) || env.diverged()) frame_max = INFINITY;
-    r.max_error_m = std::max(r.max_error_m, frame_max);
-    if (frame_max >= opt.fail_distance) failed = true;
-    if (!failed) r.frames_ok = t + 1;
-    const double root_z = d->xpos[3 * bodies[0] + 2], ref_z = ref_pos[(size_t)t * B * 3 + 2];
-    if (root_z < opt.fall_height && ref_z >= opt.fall_height) r.fell = true;
-    if (t == T - 1) {
-      const double dx = d->xpos[3 * bodies[0]] - ref_pos[(size_t)t * B * 3];
-      const double dy = d->xpos[3 * bodies[0] + 1] - ref_pos[(size_t)t * B * 3 + 1];
-      r.root_drift_m = std::sqrt(dx * dx + dy * dy);
-    }
+    std::copy(d->qpos, d->qpos + m->nq, sim.qpos.begin() + (size_t)t * m->nq);
+    std::copy(d->qvel, d->qvel + m->nv, sim.qvel.begin() + (size_t)t * m->nv);
+    score.add_frame(env);
   }
-  r.success = !failed;
-  r.mpjpe_m = T > 1 ? sum / ((double)(T - 1) * B) : 0.0;
+  PdResult r = score.result();
+  r.simulated = std::move(sim);
+  return r;
+}
+
+TrackingScorer::TrackingScorer(const Humanoid& h, const QposTrajectory& ref, const PdOptions& opt)
+    : h_(h), opt_(opt), T_(ref.frames) {
+  if (!h.is_humanoid()) throw Error("TrackingScorer: the model is not the t2m humanoid");
+  ref_pos_ = replay_joint_positions(h, ref);  // checks the reference sizes
+}
+
+void TrackingScorer::add_frame(const Env& env) {
+  if (t_ >= T_) throw Error("TrackingScorer: frame " + std::to_string(t_) + " beyond the reference's " +
+                            std::to_string(T_) + " frames");
+  const int B = kNumJoints, t = t_;
+  const mjData* d = env.data();
+  const auto& bodies = h_.tracked_bodies();
+  double frame_max = 0;
+  for (int j = 0; j < B; ++j) {
+    const double* p = d->xpos + 3 * bodies[j];
+    const float* q = ref_pos_.data() + ((size_t)t * B + j) * 3;
+    const double e = std::sqrt((p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) +
+                               (p[2] - q[2]) * (p[2] - q[2]));
+    frame_max = std::max(frame_max, e);
+    if (t > 0) sum_ += e;
+  }
+  if (!std::isfinite(frame_max) || env.diverged()) frame_max = INFINITY;
+  last_error_ = frame_max;
+  max_error_ = std::max(max_error_, frame_max);
+  if (frame_max >= opt_.fail_distance) failed_ = true;
+  if (!failed_) frames_ok_ = t + 1;
+  const double root_z = d->xpos[3 * bodies[0] + 2], ref_z = ref_pos_[(size_t)t * B * 3 + 2];
+  if (root_z < opt_.fall_height && ref_z >= opt_.fall_height) fell_ = true;
+  const double dx = d->xpos[3 * bodies[0]] - ref_pos_[(size_t)t * B * 3];
+  const double dy = d->xpos[3 * bodies[0] + 1] - ref_pos_[(size_t)t * B * 3 + 1];
+  drift_ = std::sqrt(dx * dx + dy * dy);  // kept for the last frame
+  ++t_;
+}
+
+PdResult TrackingScorer::result() const {
+  PdResult r;
+  r.frames = t_;
+  r.success = !failed_;
+  r.fell = fell_;
+  r.mpjpe_m = t_ > 1 ? sum_ / ((double)(t_ - 1) * kNumJoints) : 0.0;
+  r.root_drift_m = drift_;
+  r.max_error_m = max_error_;
+  r.frames_ok = frames_ok_;
   return r;
 }
 

@@ -41,4 +41,26 @@ struct PdResult {
 
 PdResult track_pd(Env& env, const QposTrajectory& ref, const PdOptions& opt = {});
 
+// The metric code of track_pd for any controller (the BFM tracker uses it too): after the env holds the simulated
+// state of frame t (t = 0, 1, ... in order; frame 0 = the start state), call add_frame(env); result() gives the
+// metric fields of a PdResult (frames = frames added; simulated and assist_force left empty). Throws t2m::Error on
+// a reference that does not match the humanoid, or on more frames than the reference has.
+class TrackingScorer {
+ public:
+  TrackingScorer(const Humanoid& h, const QposTrajectory& ref, const PdOptions& opt = {});
+  void add_frame(const Env& env);
+  PdResult result() const;
+  int frames_added() const { return t_; }
+  double last_frame_error() const { return last_error_; }  // max_j |p_sim - p_ref| of the last frame (m)
+
+ private:
+  const Humanoid& h_;
+  PdOptions opt_;
+  int T_;
+  std::vector<float> ref_pos_;  // [T, 21, 3]
+  int t_ = 0, frames_ok_ = 0;
+  double sum_ = 0, max_error_ = 0, drift_ = 0, last_error_ = 0;
+  bool failed_ = false, fell_ = false;
+};
+
 }  // namespace t2m::sim
