@@ -1,0 +1,121 @@
+// track_eval.cpp — BFM rollouts in lockstep, the PD baseline and the action KL (see track_eval.h).
+#include "models/bfm/track_eval.h"
+
+#include <algorithm>
+#include <cstring>
+
+#include "autograd/no_grad.h"
+#include "sim/env.h"
+
+namespace t2m::bfm {
+
+namespace {
+void check_refs(const FbAgent* agent, const sim::Humanoid& h, const RefMotions& refs) {
+  if (refs.clips() == 0) throw Error("track eval: no reference clips");
+  if (refs.nq != h.model()->nq || refs.nv != h.model()->nv)
+    throw Error("track eval: reference motions of another model (nq " + std::to_string(refs.nq) + ")");
+  if (agent && (agent->config().obs_dim != refs.obs_dim || agent->config().action_dim != h.model()->nu))
+    throw Error("track eval: the agent's obs/action dims (" + std::to_string(agent->config().obs_dim) + ", " +
+                std::to_string(agent->config().action_dim) + ") do not match the humanoid's (" +
+                std::to_string(refs.obs_dim) + ", " + std::to_string(h.model()->nu) + ")");
+}
+Tensor clip_states(const RefMotions& refs, int c) {
+  const int T = refs.frames(c), D = refs.obs_dim;
+  Tensor s = Tensor::empty({T, D});
+  std::memcpy(s.data<float>(), refs.obs_at(c, 0), sizeof(float) * T * D);
+  return s;
+}
+}  // namespace
+
+std::vector<sim::PdResult> track_bfm(FbAgent& agent, std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs,
+                                     const sim::PdOptions& opt) {
+  check_refs(&agent, *h, refs);
+  ag::NoGradGuard ng;
+  const int N = refs.clips(), D = refs.obs_dim, A = h->model()->nu, d = agent.config().z_dim;
+  std::vector<Tensor> z(N);  // [T-1, d] per clip
+  for (int c = 0; c < N; ++c) z[c] = agent.infer_tracking_z(clip_states(refs, c)).contiguous();
+  std::vector<std::unique_ptr<sim::Env>> envs;
+  std::vector<sim::TrackingScorer> score;
+  score.reserve(N);
+  std::vector<sim::QposTrajectory> traj(N);
+  for (int c = 0; c < N; ++c) traj[c] = refs.trajectory(c);
+  std::vector<float> obs((size_t)N * D);
+  for (int c = 0; c < N; ++c) {
+    envs.push_back(std::make_unique<sim::Env>(h));
+    envs[c]->reset(traj[c].qpos.data(), traj[c].qvel.data(), obs.data() + (size_t)c * D);
+    score.emplace_back(*h, traj[c], opt);
+    score[c].add_frame(*envs[c]);
+  }
+  int Tmax = 0;
+  for (int c = 0; c < N; ++c) Tmax = std::max(Tmax, refs.frames(c));
+  Tensor action;
+  Generator unused(0);
+  for (int t = 0; t + 1 < Tmax; ++t) {
+    std::vector<int> act;  // clips still running at step t -> t+1
+    for (int c = 0; c < N; ++c)
+      if (t + 1 < refs.frames(c)) act.push_back(c);
+    const int64_t M = (int64_t)act.size();
+    Tensor o = Tensor::empty({M, D}), zz = Tensor::empty({M, d});
+    for (int64_t i = 0; i < M; ++i) {
+      std::memcpy(o.data<float>() + i * D, obs.data() + (size_t)act[i] * D, sizeof(float) * D);
+      std::memcpy(zz.data<float>() + i * d, z[act[i]].data<float>() + (int64_t)t * d, sizeof(float) * d);
+    }
+    const Tensor a = agent.actor_mean(o, zz).contiguous();
+    if (a.shape() != Shape{M, A}) throw Error("track eval: actor returned " + shape_str(a.shape()));
+#pragma omp parallel for schedule(dynamic)
+    for (int64_t i = 0; i < M; ++i) {
+      const int c = act[i];
+      envs[c]->step(a.data<float>() + i * A, obs.data() + (size_t)c * D);
+      score[c].add_frame(*envs[c]);
+    }
+  }
+  std::vector<sim::PdResult> out;
+  for (int c = 0; c < N; ++c) out.push_back(score[c].result());
+  return out;
+}
+
+std::vector<sim::PdResult> track_pd_all(std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs,
+                                        const sim::PdOptions& opt) {
+  check_refs(nullptr, *h, refs);
+  const int N = refs.clips();
+  std::vector<sim::PdResult> out(N);
+  std::vector<std::string> err(N);
+#pragma omp parallel for schedule(dynamic)
+  for (int c = 0; c < N; ++c) {
+    try {
+      sim::Env env(h);
+      out[c] = sim::track_pd(env, refs.trajectory(c), opt);
+      out[c].simulated = {};
+    } catch (const std::exception& e) {
+      err[c] = e.what();
+    }
+  }
+  for (int c = 0; c < N; ++c)
+    if (!err[c].empty()) throw Error("track eval: PD on " + refs.names[c] + ": " + err[c]);
+  return out;
+}
+
+std::vector<double> window_action_kl(FbAgent& agent, const RefMotions& refs, int L_hat) {
+  ag::NoGradGuard ng;
+  std::vector<double> kl;
+  for (int c = 0; c < refs.clips(); ++c) {
+    const Tensor s = clip_states(refs, c);
+    const Tensor z = agent.infer_tracking_z(s);
+    const Tensor zh = agent.infer_tracking_z(s, L_hat);
+    kl.push_back(agent.action_kl(s.narrow(0, 0, s.size(0) - 1), zh, z));  // Text2BFM Eq 21
+  }
+  return kl;
+}
+
+nlohmann::json summarize_tracking(const std::vector<sim::PdResult>& r) {
+  double succ = 0, fell = 0, mpjpe = 0, drift = 0, frac = 0;
+  for (const auto& x : r) {
+    succ += x.success, fell += x.fell, mpjpe += x.mpjpe_m, drift += x.root_drift_m;
+    frac += x.frames ? (double)x.frames_ok / x.frames : 0.0;
+  }
+  const double n = std::max<size_t>(r.size(), 1);
+  return {{"clips", r.size()},       {"success_rate", succ / n}, {"fall_rate", fell / n},
+          {"mpjpe_m", mpjpe / n},    {"root_drift_m", drift / n}, {"mean_fraction_of_frames_tracked", frac / n}};
+}
+
+}  // namespace t2m::bfm

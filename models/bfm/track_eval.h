@@ -1,0 +1,37 @@
+// track_eval.h — tracking evaluation of the BFM against the PD baseline on reference clips (`t2m eval track`).
+//
+// BFM tracking of clip c (Text2BFM Eq 1-2): z_{1..T-1} = FbAgent::infer_tracking_z(s_{1..T}) on the reference
+// states (Eq 2, L = track_window); the body starts in the reference state (qpos[0], qvel[0]) and for t = 0..T-2
+// a_t = mu(s_t, z_t) (the policy mean; s_t the SIMULATED state), one control step. Scored frame by frame with
+// sim::TrackingScorer, i.e. exactly the metrics of the PD baseline (sim/pd_tracker.h): success (every body within
+// fail_distance of the reference on every frame), MPJPE, root drift, fall, frames tracked.
+// All clips are stepped in lockstep so the policy runs on one batch per control step (OpenMP over the envs for
+// the physics); results do not depend on the thread count.
+// PD baseline: sim::track_pd on the same clips (OpenMP over clips).
+// Action KL (Text2BFM Eq 21): per clip, KL(pi(.|s_t, z^hat_t) || pi(.|s_t, z_t)) averaged over the T-1 reference
+// states, with z from Eq 2 at L = track_window and z^hat from Eq 2 at another window L_hat (a sensitivity number
+// for the latent sequences; FbAgent::action_kl).
+// Errors (t2m::Error): references of another model or obs dim, an empty clip list.
+#pragma once
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <vector>
+
+#include "models/bfm/fb_agent.h"
+#include "models/bfm/ref_motions.h"
+#include "sim/pd_tracker.h"
+
+namespace t2m::bfm {
+
+std::vector<sim::PdResult> track_bfm(FbAgent& agent, std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs,
+                                     const sim::PdOptions& opt = {});
+std::vector<sim::PdResult> track_pd_all(std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs,
+                                        const sim::PdOptions& opt = {});
+// Per-clip Eq 21 action KL between the Eq 2 latents with windows L_hat and the agent's track_window.
+std::vector<double> window_action_kl(FbAgent& agent, const RefMotions& refs, int L_hat);
+
+// Summary over clips: {"clips", "success_rate", "fall_rate", "mpjpe_m", "root_drift_m",
+// "mean_fraction_of_frames_tracked"} (means over clips, the fields of `t2m track-pd`).
+nlohmann::json summarize_tracking(const std::vector<sim::PdResult>& r);
+
+}  // namespace t2m::bfm

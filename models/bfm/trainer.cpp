@@ -1,0 +1,255 @@
+// trainer.cpp — seed data, batches, latent mix, online collection and resumable state of BFM training
+// (see trainer.h).
+#include "models/bfm/trainer.h"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include "autograd/no_grad.h"
+#include "nn/checkpoint.h"
+#include "tensor/ops.h"
+
+namespace t2m::bfm {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+namespace {
+// Distinct Philox keys for the run's streams.
+uint64_t stream_seed(uint64_t seed, uint64_t k) {
+  uint64_t x = seed * 0x9E3779B97F4A7C15ull + k * 0xBF58476D1CE4E5B9ull + 0x94D049BB133111EBull;
+  x ^= x >> 31;
+  return x;
+}
+}  // namespace
+
+json BfmTrainConfig::to_json() const {
+  return {{"fb", fb.to_json()},
+          {"seed", seed},
+          {"ref_clips", ref_clips},
+          {"seed_transitions", seed_transitions},
+          {"seed_noise", seed_noise},
+          {"envs", envs},
+          {"max_episode_steps", max_episode_steps},
+          {"total_updates", total_updates},
+          {"offline_updates", offline_updates},
+          {"collect_every", collect_every},
+          {"collect_transitions", collect_transitions},
+          {"online_capacity", online_capacity},
+          {"online_fraction", online_fraction},
+          {"online_noise", online_noise},
+          {"batch", batch},
+          {"bc_batch", bc_batch},
+          {"z_track", z_track},
+          {"z_goal", z_goal}};
+}
+
+BfmTrainConfig BfmTrainConfig::from_json(const json& j) {
+  BfmTrainConfig c;
+  if (!j.is_object()) throw Error("bfm trainer: config is not a JSON object");
+  for (auto it = j.begin(); it != j.end(); ++it) {
+    const std::string& k = it.key();
+    const json& v = it.value();
+    try {
+      if (k == "fb") c.fb = FbConfig::from_json(v);
+      else if (k == "seed") c.seed = v.get<uint64_t>();
+      else if (k == "ref_clips") c.ref_clips = v.get<int>();
+      else if (k == "seed_transitions") c.seed_transitions = v.get<int64_t>();
+      else if (k == "seed_noise") c.seed_noise = v.get<double>();
+      else if (k == "envs") c.envs = v.get<int>();
+      else if (k == "max_episode_steps") c.max_episode_steps = v.get<int>();
+      else if (k == "total_updates") c.total_updates = v.get<int64_t>();
+      else if (k == "offline_updates") c.offline_updates = v.get<int64_t>();
+      else if (k == "collect_every") c.collect_every = v.get<int64_t>();
+      else if (k == "collect_transitions") c.collect_transitions = v.get<int64_t>();
+      else if (k == "online_capacity") c.online_capacity = v.get<int64_t>();
+      else if (k == "online_fraction") c.online_fraction = v.get<double>();
+      else if (k == "online_noise") c.online_noise = v.get<double>();
+      else if (k == "batch") c.batch = v.get<int>();
+      else if (k == "bc_batch") c.bc_batch = v.get<int>();
+      else if (k == "z_track") c.z_track = v.get<double>();
+      else if (k == "z_goal") c.z_goal = v.get<double>();
+      else throw Error("bfm trainer: unknown config key '" + k + "'");
+    } catch (const json::exception& e) {
+      throw Error("bfm trainer: config key '" + k + "': " + e.what());
+    }
+  }
+  return c;
+}
+
+void BfmTrainConfig::validate() const {
+  fb.validate();
+  const auto bad = [](const std::string& what) { throw Error("bfm trainer: " + what); };
+  if (seed_transitions < 1) bad("seed_transitions must be >= 1");
+  if (envs < 1 || max_episode_steps < 1) bad("envs and max_episode_steps must be >= 1");
+  if (batch < 2 || bc_batch < 0) bad("batch must be >= 2 and bc_batch >= 0");
+  if (total_updates < 0 || offline_updates < 0 || collect_every < 1 || collect_transitions < 1 || online_capacity < 1)
+    bad("update / collection counts out of range");
+  if (!(online_fraction >= 0 && online_fraction <= 1)) bad("online_fraction must be in [0, 1]");
+  if (!(seed_noise >= 0) || !(online_noise >= 0)) bad("noise must be >= 0");
+  if (!(z_track >= 0 && z_goal >= 0 && z_track + z_goal <= 1)) bad("z_track, z_goal in [0, 1] with sum <= 1");
+  if (ref_clips < 0) bad("ref_clips must be >= 0");
+}
+
+EncodeFn agent_encoder(FbAgent& agent) {
+  return [&agent](const Tensor& s) { return agent.embed_backward(s); };
+}
+PolicyFn agent_policy(FbAgent& agent) {
+  return [&agent](const Tensor& obs, const Tensor& z, float noise_std, Generator& gen, Tensor& action) {
+    agent.act(obs, z, noise_std, gen, action);
+  };
+}
+
+BfmTrainer::BfmTrainer(const BfmTrainConfig& cfg, std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs,
+                       std::string dir)
+    : cfg_(cfg), h_(std::move(h)), refs_(refs), dir_(std::move(dir)), gen_data_(stream_seed(cfg.seed, 1)),
+      gen_z_(stream_seed(cfg.seed, 2)), gen_agent_(stream_seed(cfg.seed, 3)), gen_collect_(stream_seed(cfg.seed, 4)),
+      gen_seed_(stream_seed(cfg.seed, 5)) {
+  cfg_.validate();
+  if (refs.obs_dim != cfg_.fb.obs_dim || h_->model()->nu != cfg_.fb.action_dim)
+    throw Error("bfm trainer: obs/action dims of the humanoid (" + std::to_string(refs.obs_dim) + ", " +
+                std::to_string(h_->model()->nu) + ") differ from the config's (" + std::to_string(cfg_.fb.obs_dim) +
+                ", " + std::to_string(cfg_.fb.action_dim) + ")");
+  fs::create_directories(dir_);
+  agent_ = std::make_unique<FbAgent>(cfg_.fb, cfg_.seed);
+  json run = cfg_.to_json();
+  run.erase("fb");
+  run.erase("total_updates");  // a run may be extended
+  ts_ = std::make_unique<nn::TrainState>(agent_->train_state(run));
+  ts_->generator("data", gen_data_).generator("z", gen_z_).generator("agent", gen_agent_);
+  ts_->generator("collect", gen_collect_);
+  online_ = std::make_unique<ReplayBuffer>(cfg_.online_capacity, cfg_.fb.obs_dim, cfg_.fb.action_dim);
+  CollectOptions co;
+  co.envs = cfg_.envs;
+  co.max_episode_steps = cfg_.max_episode_steps;
+  co.window = cfg_.fb.track_window;
+  collector_ = std::make_unique<TrackingCollector>(h_, refs_, co);
+  if (fs::exists(state_path())) {
+    ts_->load(state_path());
+    resumed_ = true;
+    const std::string of = ts_->user.value("online_file", std::string());
+    const int64_t added = ts_->user.value("online_added", (int64_t)0);
+    if (!of.empty()) {
+      if (!fs::exists(dir_ + "/" + of)) throw Error("bfm trainer: online buffer " + dir_ + "/" + of + " is missing");
+      ReplayBuffer b = ReplayBuffer::load(dir_ + "/" + of);
+      if (b.capacity() != cfg_.online_capacity || b.added() != added || b.obs_dim() != cfg_.fb.obs_dim)
+        throw Error("bfm trainer: online buffer " + of + " does not match the state (rows added " +
+                    std::to_string(b.added()) + " vs " + std::to_string(added) + ")");
+      *online_ = std::move(b);
+    } else if (added != 0) {
+      throw Error("bfm trainer: the state records an online buffer but names no file");
+    }
+  }
+}
+
+BfmTrainer::~BfmTrainer() = default;
+
+void BfmTrainer::prepare_seed(const std::function<void(int64_t, int64_t)>& on_progress) {
+  const json id = {{"seed", cfg_.seed},   {"ref_clips", cfg_.ref_clips}, {"transitions", cfg_.seed_transitions},
+                   {"noise", cfg_.seed_noise}, {"envs", cfg_.envs}, {"max_episode_steps", cfg_.max_episode_steps},
+                   {"ref_names_frames", refs_.total_frames()}};
+  const std::string id_path = dir_ + "/seed_buffer.json";
+  if (fs::exists(seed_path()) && fs::exists(id_path)) {
+    json have;
+    try {
+      std::ifstream f(id_path);
+      f >> have;
+    } catch (const std::exception&) {
+      have = nullptr;
+    }
+    if (have == id) {
+      seed_ = std::make_unique<ReplayBuffer>(ReplayBuffer::load(seed_path()));
+      if (seed_->size() != cfg_.seed_transitions || seed_->obs_dim() != cfg_.fb.obs_dim ||
+          seed_->action_dim() != cfg_.fb.action_dim)
+        throw Error("bfm trainer: seed buffer " + seed_path() + " does not match its description");
+      return;
+    }
+  }
+  if (resumed_) throw Error("bfm trainer: resuming, but the seed buffer " + seed_path() +
+                            " is missing or was made with another config");
+  seed_ = std::make_unique<ReplayBuffer>(cfg_.seed_transitions, cfg_.fb.obs_dim, cfg_.fb.action_dim);
+  CollectOptions co = collector_->options();
+  co.action_noise = cfg_.seed_noise;
+  TrackingCollector pd(h_, refs_, co);
+  Generator g(gen_seed_.seed());  // always from the start: the seed buffer is a pure function of the config
+  const int64_t chunk = 8192;
+  for (int64_t done = 0; done < cfg_.seed_transitions;) {
+    const int64_t n = std::min(chunk, cfg_.seed_transitions - done);
+    pd.collect_pd(n, g, *seed_);
+    done += n;
+    if (on_progress) on_progress(done, cfg_.seed_transitions);
+  }
+  seed_->save(seed_path());
+  nn::write_file_atomic(id_path, id.dump(1) + "\n");
+}
+
+BfmStepStats BfmTrainer::train_step() {
+  if (!seed_) throw Error("bfm trainer: prepare_seed() before train_step()");
+  BfmStepStats out;
+  const int64_t step = ts_->step;
+  const int L = cfg_.fb.track_window;
+  const EncodeFn enc = agent_encoder(*agent_);
+  if (step >= cfg_.offline_updates && (step - cfg_.offline_updates) % cfg_.collect_every == 0) {
+    out.collect = collector_->collect_policy(cfg_.collect_transitions, enc, agent_policy(*agent_), gen_collect_,
+                                             *online_);
+    out.collected = true;
+  }
+  // FB batch: seed rows then online rows.
+  const int64_t B = cfg_.batch;
+  const int64_t n_on = online_->size() >= B ? std::llround(B * cfg_.online_fraction) : 0;
+  const int64_t n_seed = B - n_on;
+  const auto ensure = [&](ReplayBatch& b, int64_t n) {
+    if (!b.obs.defined() || b.obs.size(0) != n) b = make_replay_batch(n, cfg_.fb.obs_dim, cfg_.fb.action_dim);
+  };
+  FbBatch fb;
+  if (n_seed > 0) {
+    ensure(seed_batch_, n_seed);
+    seed_->sample_into(n_seed, gen_data_, seed_batch_);
+  }
+  if (n_on > 0) {
+    ensure(online_batch_, n_on);
+    online_->sample_into(n_on, gen_data_, online_batch_);
+  }
+  if (n_on == 0) {
+    fb.obs = seed_batch_.obs, fb.action = seed_batch_.action, fb.next_obs = seed_batch_.next_obs;
+    fb.not_done = seed_batch_.not_done;
+  } else if (n_seed == 0) {
+    fb.obs = online_batch_.obs, fb.action = online_batch_.action, fb.next_obs = online_batch_.next_obs;
+    fb.not_done = online_batch_.not_done;
+  } else {
+    fb.obs = concat({seed_batch_.obs, online_batch_.obs}, 0);
+    fb.action = concat({seed_batch_.action, online_batch_.action}, 0);
+    fb.next_obs = concat({seed_batch_.next_obs, online_batch_.next_obs}, 0);
+    fb.not_done = concat({seed_batch_.not_done, online_batch_.not_done}, 0);
+  }
+  {
+    ag::NoGradGuard ng;
+    fb.z = sample_training_z(B, ZMix{cfg_.z_track, cfg_.z_goal}, refs_, L, fb.next_obs, enc, cfg_.fb.z_dim, gen_z_);
+    if (cfg_.bc_batch > 0) {
+      ensure(bc_batch_, cfg_.bc_batch);
+      seed_->sample_into(cfg_.bc_batch, gen_data_, bc_batch_);
+      fb.bc_obs = bc_batch_.obs;
+      fb.bc_action = bc_batch_.action;
+      fb.bc_z = window_latents(refs_, bc_batch_.clip.data<int64_t>(), bc_batch_.frame.data<int64_t>(), cfg_.bc_batch,
+                               L, enc);
+    }
+  }
+  out.fb = agent_->update(fb, gen_agent_);
+  ++ts_->step;
+  return out;
+}
+
+void BfmTrainer::save() {
+  const std::string name = online_->size() > 0 ? "online-" + std::to_string(ts_->step) + ".t2mckpt" : "";
+  if (!name.empty()) online_->save(dir_ + "/" + name);
+  ts_->user["online_file"] = name;
+  ts_->user["online_added"] = online_->added();
+  ts_->save(state_path());
+  for (const auto& e : fs::directory_iterator(dir_)) {  // older online buffers
+    const std::string f = e.path().filename().string();
+    if (f.rfind("online-", 0) == 0 && f != name) fs::remove(e.path());
+  }
+}
+
+}  // namespace t2m::bfm

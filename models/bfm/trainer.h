@@ -1,0 +1,106 @@
+// trainer.h — the BFM training run of ARCHITECTURE.md section 5, scaled to the 2-core machine: seed the replay
+// buffer with noisy-PD tracking transitions on the training clips, then FB + actor updates (FbAgent::update) with
+// behaviour cloning on the seed data, and from `offline_updates` on, online collection with the current policy
+// tracking training clips (z from Eq 2 on the reference), all in resumable chunks.
+//
+//   BfmTrainer tr(cfg, humanoid, refs, dir);   // loads dir/state.t2mckpt when it exists (resume), else fresh
+//   tr.prepare_seed(on_progress);              // collects the seed buffer once (dir/seed_buffer.t2mckpt)
+//   while (tr.step() < cfg.total_updates && time left) { auto s = tr.train_step(); ... }
+//   tr.save();
+//
+// One update (train_step), every draw from the run's generators in a fixed order:
+//   1. when online collection is due (step >= offline_updates, every collect_every updates): collect_transitions
+//      transitions with pi(a | s, z_t), actor noise online_noise, into the online ring buffer ("collect" gen);
+//   2. FB batch: batch rows, a fraction online_fraction from the online buffer once it holds >= batch rows, the
+//      rest from the seed buffer ("data" gen);
+//   3. z: sample_training_z with (z_track, z_goal), the batch's next_obs for goals ("z" gen);
+//   4. BC batch: bc_batch seed rows (obs, action) with bc_z = Eq 2 on the row's own reference window ("data");
+//   5. FbAgent::update(batch, "agent" gen).
+// Files in dir: state.t2mckpt (nn::TrainState of the agent + generators + counters; atomic), online-STEP.t2mckpt
+// (the online buffer saved with that state; older ones are removed after the state is written), seed_buffer.t2mckpt.
+// The config (FbConfig + this struct) is recorded in the state; resuming with a different config is an error
+// (nn::TrainState names the differing key). Deterministic for a seed and a thread count.
+// Errors (t2m::Error "bfm trainer: ..."): bad config values, a seed buffer or online buffer that does not match the
+// state (size / dims / rows added), a missing online buffer on resume.
+#pragma once
+#include <functional>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "models/bfm/collect.h"
+#include "models/bfm/fb_agent.h"
+#include "models/bfm/z_sampler.h"
+#include "nn/train_state.h"
+
+namespace t2m::bfm {
+
+struct BfmTrainConfig {
+  FbConfig fb;
+  uint64_t seed = 0;
+  int ref_clips = 300;              // training clips used as references (0 = all of the split)
+  int64_t seed_transitions = 60000;  // ARCHITECTURE: 1.5-2M; ~220/s on the loaded 2-core machine (docs/BFM.md)
+  double seed_noise = 0.1;          // PD action noise of the seed data
+  int envs = 16;                    // parallel environments for collection
+  int max_episode_steps = 150;
+  int64_t total_updates = 20000;
+  int64_t offline_updates = 3000;   // updates on seed data only before online collection starts
+  int64_t collect_every = 50;       // updates between online collection rounds
+  int64_t collect_transitions = 512;
+  int64_t online_capacity = 100000;
+  double online_fraction = 0.5;
+  double online_noise = 0.2;
+  int batch = 256;
+  int bc_batch = 128;               // 0: no behaviour cloning
+  double z_track = 0.5, z_goal = 0.2;
+
+  nlohmann::json to_json() const;
+  static BfmTrainConfig from_json(const nlohmann::json& j);  // missing keys keep defaults; unknown keys: Error
+  void validate() const;
+};
+
+struct BfmStepStats {
+  FbUpdateStats fb;
+  bool collected = false;
+  CollectStats collect;  // when collected
+};
+
+class BfmTrainer {
+ public:
+  BfmTrainer(const BfmTrainConfig& cfg, std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs,
+             std::string dir);
+  ~BfmTrainer();
+
+  bool resumed() const { return resumed_; }
+  // Collects (or loads) the seed buffer; on_progress(done, total) is called between chunks.
+  void prepare_seed(const std::function<void(int64_t, int64_t)>& on_progress = {});
+  BfmStepStats train_step();
+  void save();
+
+  int64_t step() const { return ts_->step; }
+  FbAgent& agent() { return *agent_; }
+  const ReplayBuffer& seed_buffer() const { return *seed_; }
+  const ReplayBuffer& online_buffer() const { return *online_; }
+  const BfmTrainConfig& config() const { return cfg_; }
+  std::string state_path() const { return dir_ + "/state.t2mckpt"; }
+  std::string seed_path() const { return dir_ + "/seed_buffer.t2mckpt"; }
+
+ private:
+  BfmTrainConfig cfg_;
+  std::shared_ptr<const sim::Humanoid> h_;
+  const RefMotions& refs_;
+  std::string dir_;
+  std::unique_ptr<FbAgent> agent_;
+  std::unique_ptr<nn::TrainState> ts_;
+  Generator gen_data_, gen_z_, gen_agent_, gen_collect_, gen_seed_;
+  std::unique_ptr<ReplayBuffer> seed_, online_;
+  std::unique_ptr<TrackingCollector> collector_;
+  bool resumed_ = false;
+  ReplayBatch seed_batch_, online_batch_, bc_batch_;
+};
+
+// The encoder / policy callbacks of collect.h bound to an agent.
+EncodeFn agent_encoder(FbAgent& agent);
+PolicyFn agent_policy(FbAgent& agent);
+
+}  // namespace t2m::bfm

@@ -1,0 +1,124 @@
+// cmd_eval_track.cpp — `t2m eval track`: motion tracking on held-out clips, the BFM (z_t from Eq 2 on the
+// reference, roll out the policy mean) and the PD baseline side by side, with the same metrics
+// (sim::TrackingScorer), plus the Eq 21 action KL between the Eq 2 latent sequences at two window lengths.
+//   t2m eval track [--policy models/checkpoints/bfm_small.t2mckpt] [--split test] [--clips N] [--kl-window 4]
+//                  [--no-pd] [--threads T] [--out RESULT.json]
+// --clips N: N clips spread evenly over the split (sorted by name, fixed stride), 0 = all.
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "models/bfm/policy_checkpoint.h"
+#include "models/bfm/track_eval.h"
+#include "models/data/dataset.h"
+#include "nn/checkpoint.h"
+#include "tensor/parallel.h"
+#include "tools/command.h"
+
+namespace {
+
+using t2m::Error;
+using json = nlohmann::json;
+namespace fs = std::filesystem;
+namespace bfm = t2m::bfm;
+
+struct EvalTrackArgs {
+  std::string policy = "models/checkpoints/bfm_small.t2mckpt";
+  std::string manifest, split = "test", out;
+  int clips = 0, threads = 0, kl_window = 4;
+  bool no_pd = false;
+};
+
+json rows_json(const bfm::RefMotions& refs, const std::vector<t2m::sim::PdResult>& r) {
+  json rows = json::array();
+  for (size_t c = 0; c < r.size(); ++c)
+    rows.push_back({{"name", refs.names[c]},
+                    {"frames", r[c].frames},
+                    {"success", r[c].success},
+                    {"fell", r[c].fell},
+                    {"mpjpe_m", r[c].mpjpe_m},
+                    {"root_drift_m", r[c].root_drift_m},
+                    {"frames_ok", r[c].frames_ok}});
+  return rows;
+}
+
+void print_row(const char* who, const json& s) {
+  std::printf("%-5s success %5.1f%%  fall %5.1f%%  MPJPE %7.1f mm  root drift %5.2f m  frames tracked %5.1f%%\n", who,
+              100 * s["success_rate"].get<double>(), 100 * s["fall_rate"].get<double>(),
+              1e3 * s["mpjpe_m"].get<double>(), s["root_drift_m"].get<double>(),
+              100 * s["mean_fraction_of_frames_tracked"].get<double>());
+}
+
+void run_eval_track(const EvalTrackArgs& a) {
+  using clock = std::chrono::steady_clock;
+  if (a.threads > 0) t2m::set_num_threads(a.threads);
+  if (a.clips < 0) throw Error("eval track: --clips must be >= 0");
+  if (a.kl_window < 1) throw Error("eval track: --kl-window must be >= 1");
+  if (!fs::exists(a.policy)) throw Error("eval track: no policy file '" + a.policy + "' (train one with `t2m train bfm --export`)");
+  json info;
+  auto agent = bfm::load_policy(a.policy, &info);
+  const t2m::data::Split split = t2m::data::split_from_name(a.split);
+  const std::string mpath =
+      a.manifest.empty() ? t2m::data::default_cache_dir() + "/bandai/manifest.json" : a.manifest;
+  if (!fs::exists(mpath)) throw Error("eval track: no manifest at " + mpath + " (run `t2m data prepare`)");
+  auto h = t2m::sim::Humanoid::create();
+  const bfm::RefMotions refs = bfm::load_ref_motions(*h, t2m::data::load_manifest(mpath), split, a.clips);
+  std::fprintf(stderr, "eval track: %d %s clips (%lld frames)\n", refs.clips(), a.split.c_str(),
+               (long long)refs.total_frames());
+  auto t0 = clock::now();
+  const auto bfm_res = bfm::track_bfm(*agent, h, refs);
+  const double bfm_s = std::chrono::duration<double>(clock::now() - t0).count();
+  const json bs = bfm::summarize_tracking(bfm_res);
+  json result = {{"command", "eval track"},
+                 {"data", "Bandai-Namco-Research-Motiondataset (CC BY-NC 4.0), split " + a.split},
+                 {"policy", a.policy},
+                 {"policy_info", info},
+                 {"bfm", bs},
+                 {"bfm_seconds", bfm_s}};
+  std::printf("eval track (%s split, %d clips, no assist):\n", a.split.c_str(), refs.clips());
+  print_row("BFM", bs);
+  if (!a.no_pd) {
+    t0 = clock::now();
+    const auto pd_res = bfm::track_pd_all(h, refs);
+    const json ps = bfm::summarize_tracking(pd_res);
+    result["pd"] = ps;
+    result["pd_seconds"] = std::chrono::duration<double>(clock::now() - t0).count();
+    result["pd_clips"] = rows_json(refs, pd_res);
+    print_row("PD", ps);
+  }
+  const std::vector<double> kl = bfm::window_action_kl(*agent, refs, a.kl_window);
+  double kl_mean = 0;
+  for (double k : kl) kl_mean += k;
+  kl_mean /= std::max<size_t>(kl.size(), 1);
+  result["action_kl_eq21"] = {{"z", "Eq 2, L = " + std::to_string(agent->config().track_window)},
+                              {"z_hat", "Eq 2, L = " + std::to_string(a.kl_window)},
+                              {"mean_over_clips", kl_mean}};
+  result["bfm_clips"] = rows_json(refs, bfm_res);
+  std::printf("Eq 21 action KL(z_hat L=%d || z L=%d) on the reference states: %.4f (mean over clips)\n", a.kl_window,
+              agent->config().track_window, kl_mean);
+  if (!a.out.empty()) {
+    t2m::nn::write_file_atomic(a.out, result.dump(1) + "\n");
+    std::printf("wrote %s\n", a.out.c_str());
+  }
+}
+
+void add_eval_track(CLI::App& app) {
+  auto* g = t2m::cli::command_group(app, "eval", "evaluate a model");
+  auto* c = g->add_subcommand("track", "BFM vs PD motion tracking on held-out clips (success, MPJPE, falls)");
+  static EvalTrackArgs a;
+  c->add_option("--policy", a.policy, "BFM policy checkpoint (actor + B)")->capture_default_str();
+  c->add_option("--manifest", a.manifest, "data manifest (default ~/.cache/t2m/bandai/manifest.json)");
+  c->add_option("--split", a.split, "train | val | test")->capture_default_str();
+  c->add_option("--clips", a.clips, "evaluate N clips spread over the split (0 = all)")->capture_default_str();
+  c->add_option("--kl-window", a.kl_window, "window L of z_hat for the Eq 21 action KL")->capture_default_str();
+  c->add_flag("--no-pd", a.no_pd, "skip the PD baseline");
+  c->add_option("--threads", a.threads, "threads (0 = default)");
+  c->add_option("--out", a.out, "write the JSON result here (atomic)");
+  c->callback([] { run_eval_track(a); });
+}
+
+}  // namespace
+
+T2M_COMMAND(add_eval_track);

@@ -1,0 +1,197 @@
+// cmd_train_bfm.cpp — `t2m train bfm`: the behavior foundation model (FB agent) in resumable chunks.
+//   t2m train bfm [--out DIR] [--minutes M | --updates N] [--total-updates N] [--seed S] [--threads T]
+//                 [--seed-transitions N] [--ref-clips N] [--offline-updates N] [--export POLICY.t2mckpt] ...
+// DIR (default $T2M_CACHE/bfm/default, i.e. ~/.cache/t2m/bfm/default) holds config.json (the run's config, written
+// by the first invocation and read by later ones; flags given again must agree with it), the seed buffer, the
+// training state (resumed automatically), log.jsonl and loss.svg. Each invocation trains until --minutes or
+// --updates or the total is reached, saving atomically every --save-minutes and at the end. See docs/BFM.md.
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <utility>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "models/bfm/policy_checkpoint.h"
+#include "models/bfm/ref_motions.h"
+#include "models/bfm/trainer.h"
+#include "models/data/dataset.h"
+#include "nn/checkpoint.h"
+#include "nn/progress.h"
+#include "nn/train_log.h"
+#include "tensor/parallel.h"
+#include "tools/command.h"
+
+namespace {
+
+using t2m::Error;
+using json = nlohmann::json;
+namespace fs = std::filesystem;
+namespace bfm = t2m::bfm;
+
+struct TrainBfmArgs {
+  std::string out, manifest, export_path;
+  double minutes = 0, save_minutes = 5;
+  int64_t updates = 0;
+  int threads = 0, log_every = 20;
+  bfm::BfmTrainConfig cfg;
+};
+
+void run_train_bfm(const TrainBfmArgs& a, CLI::App* app) {
+  using clock = std::chrono::steady_clock;
+  const auto t_start = clock::now();
+  if (a.threads > 0) t2m::set_num_threads(a.threads);
+  const std::string dir = a.out.empty() ? t2m::data::default_cache_dir() + "/bfm/default" : a.out;
+  fs::create_directories(dir);
+  // Config: config.json of the run when present; flags given on this command line override it (then TrainState
+  // refuses to resume if they change what the state was trained with).
+  bfm::BfmTrainConfig cfg = a.cfg;
+  const std::string cfg_path = dir + "/config.json";
+  if (fs::exists(cfg_path)) {
+    json j;
+    try {
+      std::ifstream f(cfg_path);
+      f >> j;
+    } catch (const std::exception& e) {
+      throw Error("train bfm: cannot parse " + cfg_path + ": " + e.what());
+    }
+    cfg = bfm::BfmTrainConfig::from_json(j);  // then the flags given on this command line
+    bfm::BfmTrainConfig& f = cfg;
+    const bfm::BfmTrainConfig& g = a.cfg;
+    const std::pair<const char*, std::function<void()>> flags[] = {
+        {"--seed", [&] { f.seed = g.seed; }},
+        {"--ref-clips", [&] { f.ref_clips = g.ref_clips; }},
+        {"--seed-transitions", [&] { f.seed_transitions = g.seed_transitions; }},
+        {"--total-updates", [&] { f.total_updates = g.total_updates; }},
+        {"--offline-updates", [&] { f.offline_updates = g.offline_updates; }},
+        {"--envs", [&] { f.envs = g.envs; }},
+        {"--batch", [&] { f.batch = g.batch; }},
+        {"--bc-batch", [&] { f.bc_batch = g.bc_batch; }},
+        {"--hidden", [&] { f.fb.hidden = g.fb.hidden; }},
+        {"--z-dim", [&] { f.fb.z_dim = g.fb.z_dim; }},
+        {"--collect-every", [&] { f.collect_every = g.collect_every; }},
+        {"--online-capacity", [&] { f.online_capacity = g.online_capacity; }}};
+    for (const auto& [flag, set] : flags)
+      if (app->count(flag) > 0) set();
+  }
+  cfg.validate();
+  t2m::nn::write_file_atomic(cfg_path, cfg.to_json().dump(1) + "\n");
+
+  const std::string mpath =
+      a.manifest.empty() ? t2m::data::default_cache_dir() + "/bandai/manifest.json" : a.manifest;
+  if (!fs::exists(mpath)) throw Error("train bfm: no manifest at " + mpath + " (run `t2m data prepare`)");
+  const auto manifest = t2m::data::load_manifest(mpath);
+  auto h = t2m::sim::Humanoid::create();
+  auto t0 = clock::now();
+  const bfm::RefMotions refs = bfm::load_ref_motions(*h, manifest, t2m::data::Split::train, cfg.ref_clips);
+  std::fprintf(stderr, "train bfm: %d training clips (%lld frames) retargeted in %.1f s\n", refs.clips(),
+               (long long)refs.total_frames(), std::chrono::duration<double>(clock::now() - t0).count());
+
+  bfm::BfmTrainer tr(cfg, h, refs, dir);
+  if (tr.resumed()) std::fprintf(stderr, "train bfm: resumed %s at update %lld\n", dir.c_str(), (long long)tr.step());
+  {
+    t0 = clock::now();
+    t2m::nn::ProgressOptions po;
+    t2m::nn::Progress bar(cfg.seed_transitions, "seed data", po);
+    bool collected = false;
+    tr.prepare_seed([&](int64_t done, int64_t) { collected = true; bar.update(done); });
+    bar.finish();
+    const double s = std::chrono::duration<double>(clock::now() - t0).count();
+    if (collected)
+      std::fprintf(stderr, "train bfm: %lld seed transitions (noisy PD) in %.1f s = %.0f transitions/s\n",
+                   (long long)cfg.seed_transitions, s, cfg.seed_transitions / std::max(s, 1e-9));
+  }
+
+  t2m::nn::TrainLog log(dir + "/log.jsonl", tr.step());
+  t2m::nn::ProgressOptions po;
+  po.start = tr.step();
+  t2m::nn::Progress bar(cfg.total_updates, "train bfm", po);
+  const int64_t stop = a.updates > 0 ? std::min(cfg.total_updates, tr.step() + a.updates) : cfg.total_updates;
+  const auto run_start = clock::now();
+  auto last_save = clock::now();
+  const auto minutes_since = [&](clock::time_point t) {
+    return std::chrono::duration<double>(clock::now() - t).count() / 60.0;
+  };
+  int64_t done_here = 0;
+  while (tr.step() < stop && !(a.minutes > 0 && minutes_since(run_start) >= a.minutes)) {
+    const bfm::BfmStepStats s = tr.train_step();
+    ++done_here;
+    const int64_t step = tr.step();
+    if (step % a.log_every == 0 || s.collected) {
+      json rec = {{"step", step},
+                  {"fb_loss", s.fb.fb_loss},
+                  {"ortho_loss", s.fb.ortho_loss},
+                  {"actor_loss", s.fb.actor_loss},
+                  {"bc_loss", s.fb.bc_loss},
+                  {"q_mean", s.fb.q_mean}};
+      if (s.collected) {
+        rec["online_episode_steps"] = s.collect.mean_episode_steps();
+        rec["online_fail_rate"] = s.collect.episodes ? (double)s.collect.failed / s.collect.episodes : 0.0;
+      }
+      log.write(rec);
+    }
+    bar.update(step, {{"fb", s.fb.fb_loss}, {"actor", s.fb.actor_loss}, {"bc", s.fb.bc_loss}});
+    if (minutes_since(last_save) >= a.save_minutes) {
+      tr.save();
+      last_save = clock::now();
+    }
+  }
+  bar.finish();
+  tr.save();
+  try {
+    t2m::nn::SvgPlotOptions so;
+    so.keys = {"fb_loss", "actor_loss", "bc_loss", "ortho_loss"};
+    so.title = "t2m train bfm: losses (Bandai train split)";
+    t2m::nn::write_loss_svg(dir + "/log.jsonl", dir + "/loss.svg", so);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "train bfm: no loss plot yet (%s)\n", e.what());
+  }
+  const double secs = std::chrono::duration<double>(clock::now() - run_start).count();
+  std::printf("train bfm: %lld updates this run in %.1f s (%.2f updates/s), at %lld / %lld; state %s\n",
+              (long long)done_here, secs, done_here / std::max(secs, 1e-9), (long long)tr.step(),
+              (long long)cfg.total_updates, tr.state_path().c_str());
+  if (!a.export_path.empty()) {
+    const json info = {{"updates", tr.step()},
+                       {"run_config", cfg.to_json()},
+                       {"data", "Bandai-Namco-Research-Motiondataset (CC BY-NC 4.0), train split"}};
+    if (const fs::path p(a.export_path); p.has_parent_path()) fs::create_directories(p.parent_path());
+    bfm::save_policy(tr.agent(), a.export_path, info);
+    std::printf("wrote %s (actor + B + config)\n", a.export_path.c_str());
+  }
+  std::fprintf(stderr, "train bfm: total wall %.1f s\n", std::chrono::duration<double>(clock::now() - t_start).count());
+}
+
+void add_train_bfm(CLI::App& app) {
+  auto* g = t2m::cli::command_group(app, "train", "train a model");
+  auto* c = g->add_subcommand("bfm", "train the behavior foundation model (FB agent) in resumable chunks");
+  static TrainBfmArgs a;
+  auto& cfg = a.cfg;
+  c->add_option("--out", a.out, "run directory (default ~/.cache/t2m/bfm/default)");
+  c->add_option("--manifest", a.manifest, "data manifest (default ~/.cache/t2m/bandai/manifest.json)");
+  c->add_option("--minutes", a.minutes, "stop this invocation after M minutes (0 = no limit)");
+  c->add_option("--updates", a.updates, "stop this invocation after N updates (0 = no limit)");
+  c->add_option("--save-minutes", a.save_minutes, "checkpoint every M minutes")->capture_default_str();
+  c->add_option("--log-every", a.log_every, "log line every N updates")->capture_default_str()->check(CLI::PositiveNumber);
+  c->add_option("--threads", a.threads, "threads (0 = default); results are deterministic per thread count");
+  c->add_option("--export", a.export_path, "write the policy checkpoint (actor + B + config) here at the end");
+  c->add_option("--seed", cfg.seed, "run seed")->capture_default_str();
+  c->add_option("--total-updates", cfg.total_updates, "updates of the whole run")->capture_default_str();
+  c->add_option("--offline-updates", cfg.offline_updates, "updates before online collection")->capture_default_str();
+  c->add_option("--seed-transitions", cfg.seed_transitions, "noisy-PD seed transitions")->capture_default_str();
+  c->add_option("--ref-clips", cfg.ref_clips, "training clips used (0 = all)")->capture_default_str();
+  c->add_option("--envs", cfg.envs, "parallel environments")->capture_default_str();
+  c->add_option("--batch", cfg.batch, "FB batch")->capture_default_str();
+  c->add_option("--bc-batch", cfg.bc_batch, "behaviour-cloning batch (0 = off)")->capture_default_str();
+  c->add_option("--hidden", cfg.fb.hidden, "width of F and the actor")->capture_default_str();
+  c->add_option("--z-dim", cfg.fb.z_dim, "latent dimension d")->capture_default_str();
+  c->add_option("--collect-every", cfg.collect_every, "updates between online rounds")->capture_default_str();
+  c->add_option("--online-capacity", cfg.online_capacity, "online replay capacity")->capture_default_str();
+  c->callback([c] { run_train_bfm(a, c); });
+}
+
+}  // namespace
+
+T2M_COMMAND(add_train_bfm);
