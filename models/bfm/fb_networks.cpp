@@ -6,6 +6,7 @@
 
 #include "autograd/ops_join.h"
 #include "autograd/ops_unary.h"
+#include "models/bfm/layer_norm_tanh.h"
 #include "models/bfm/sphere_projection.h"
 
 namespace t2m::bfm {
@@ -41,7 +42,7 @@ FbEmbedding::FbEmbedding(int64_t in, int64_t h, Generator& gen) {
 
 // x [N, in] -> relu(fc2(tanh(ln(fc1(x))))) [N, h/2]
 ag::Variable FbEmbedding::forward(const ag::Variable& x) const {
-  return ag::relu(fc2_->forward(ag::tanh(ln_->forward(fc1_->forward(x)))));
+  return ag::relu(fc2_->forward(layer_norm_tanh(fc1_->forward(x), ln_->weight(), ln_->bias())));
 }
 
 ForwardMap::ForwardMap(int64_t D, int64_t A, int64_t d, int64_t h, Generator& gen) : D_(D), A_(A), d_(d) {
@@ -75,7 +76,8 @@ BackwardMap::BackwardMap(int64_t D, int64_t d, int64_t h, Generator& gen) : D_(D
 // s [N, D] -> sqrt(d) * normalize(fc3(relu(fc2(tanh(ln(fc1(s))))))) [N, d]
 ag::Variable BackwardMap::forward(const ag::Variable& s) const {
   check_last("BackwardMap", "s", s, D_);
-  const ag::Variable u = fc3_->forward(ag::relu(fc2_->forward(ag::tanh(ln_->forward(fc1_->forward(s))))));
+  const ag::Variable u =
+      fc3_->forward(ag::relu(fc2_->forward(layer_norm_tanh(fc1_->forward(s), ln_->weight(), ln_->bias()))));
   return sphere_project(u, std::sqrt((double)d_));
 }
 

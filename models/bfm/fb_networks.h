@@ -12,6 +12,7 @@
 // Actor(D, A, d, h): mu(s, z) = tanh(fc2(relu(fc1([embed_z([s, z]), embed_s(s)]))))   (the policy mean; the std
 //   is fixed by the agent). children "embed_z" (D+d -> h/2), "embed_s" (D -> h/2), "fc1" Linear(h, h),
 //   "fc2" Linear(h, A). s [N, D], z [N, d] -> [N, A] in (-1, 1).
+// LayerNorm -> Tanh runs as one fused op (layer_norm_tanh.h); the "ln" child holds its weight and bias.
 // Initialisation: PyTorch's default Linear init from the Generator, in registration order; LayerNorm 1/0.
 // Errors (t2m::Error naming the network): dims < 1, h odd or < 2; forward inputs whose last dims do not match.
 #pragma once

@@ -1,0 +1,132 @@
+// layer_norm_tanh.cpp — forward: fused LayerNorm kernel, then tanh in place; backward: (1 - y^2) mask, then
+// the fused LayerNorm backward (input gradient written, weight/bias gradients accumulated into fresh zeros).
+#include "models/bfm/layer_norm_tanh.h"
+
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <string>
+
+#include "autograd/node.h"
+#include "tensor/fused/layer_norm.h"
+#include "tensor/parallel.h"
+
+namespace t2m::bfm {
+
+namespace {
+
+// e^x for x in [-20, 0] (what tanh needs: x = -2|u|): x = n ln2 + r, |r| <= ln2/2, degree-6 Taylor for e^r,
+// 2^n through the exponent bits. Branch-free, so loops over it vectorise.
+inline float exp_neg(float x) {
+  x = x < -20.f ? -20.f : x;
+  const float n = std::nearbyint(x * 1.44269504f);
+  const float r = (x - n * 0.693145751953125f) - n * 1.428606765330187e-6f;
+  float p = 1.f / 720.f;
+  p = p * r + 1.f / 120.f;
+  p = p * r + 1.f / 24.f;
+  p = p * r + 1.f / 6.f;
+  p = p * r + 0.5f;
+  p = p * r + 1.f;
+  p = p * r + 1.f;
+  return p * std::bit_cast<float>(((int32_t)n + 127) << 23);
+}
+
+// tanh(u) = sign(u) (1 - e) / (1 + e), e = e^{-2|u|} in (0, 1]: no overflow, no cancellation near 0 beyond
+// the absolute error of e.
+inline float tanh_f(float u) {
+  const float e = exp_neg(-2.f * std::fabs(u));
+  return std::copysign((1.f - e) / (1.f + e), u);
+}
+
+template <typename T>
+void tanh_inplace(T* y, int64_t n) {
+  const int nt = n < kParallelGrain ? 1 : get_num_threads();
+  if constexpr (std::is_same_v<T, float>) {
+#pragma omp parallel for simd schedule(static) num_threads(nt)
+    for (int64_t i = 0; i < n; ++i) y[i] = tanh_f(y[i]);
+  } else {
+#pragma omp parallel for schedule(static) num_threads(nt)
+    for (int64_t i = 0; i < n; ++i) y[i] = std::tanh(y[i]);
+  }
+}
+
+// d[i] = g[i] (1 - y[i]^2)
+template <typename T>
+void tanh_grad(T* d, const T* g, const T* y, int64_t n) {
+  const int nt = n < kParallelGrain ? 1 : get_num_threads();
+#pragma omp parallel for simd schedule(static) num_threads(nt)
+  for (int64_t i = 0; i < n; ++i) d[i] = g[i] * ((T)1 - y[i] * y[i]);
+}
+
+template <typename T>
+T* ptr(const Tensor& t) { return t.defined() ? const_cast<T*>(t.data<T>()) : nullptr; }
+
+}  // namespace
+
+float fast_tanh(float u) { return tanh_f(u); }
+
+// x [N, C] (leading dims flattened) -> y [N, C];  saved: x, y, mean [N], rstd [N], weight
+ag::Variable layer_norm_tanh(const ag::Variable& x, const ag::Variable& weight, const ag::Variable& bias,
+                             double eps) {
+  if (x.dim() < 1 || x.size(-1) < 1)
+    throw Error("layer_norm_tanh: x must have a non-empty last dim, got " + shape_str(x.shape()));
+  const DType dt = x.dtype();
+  if (dt != DType::f32 && dt != DType::f64) throw Error("layer_norm_tanh: x must be f32 or f64");
+  const int64_t C = x.size(-1), N = x.numel() / C;
+  for (const ag::Variable* p : {&weight, &bias})
+    if (p->defined() && (p->shape() != Shape{C} || p->dtype() != dt))
+      throw Error("layer_norm_tanh: weight/bias must be [" + std::to_string(C) + "] " + dtype_name(dt) + ", got " +
+                  shape_str(p->shape()) + " " + dtype_name(p->dtype()));
+  const Tensor xc = x.data().contiguous();
+  const Tensor w = weight.defined() ? weight.data().contiguous() : Tensor();
+  const Tensor b = bias.defined() ? bias.data().contiguous() : Tensor();
+  Tensor y = Tensor::empty(xc.shape(), dt), mean = Tensor::empty({N}, dt), rstd = Tensor::empty({N}, dt);
+  if (dt == DType::f32) {
+    fused::layer_norm_forward<float>(y.data<float>(), mean.data<float>(), rstd.data<float>(), xc.data<float>(),
+                                     ptr<float>(w), ptr<float>(b), N, C, (float)eps);
+    tanh_inplace<float>(y.data<float>(), N * C);
+  } else {
+    fused::layer_norm_forward<double>(y.data<double>(), mean.data<double>(), rstd.data<double>(), xc.data<double>(),
+                                      ptr<double>(w), ptr<double>(b), N, C, eps);
+    tanh_inplace<double>(y.data<double>(), N * C);
+  }
+  std::vector<ag::Variable> inputs = {x};
+  if (weight.defined()) inputs.push_back(weight);
+  if (bias.defined()) inputs.push_back(bias);
+  if (!ag::any_requires_grad(inputs)) return ag::Variable(y);
+  const bool has_w = weight.defined(), has_b = bias.defined();
+  return ag::record(
+      "layer_norm_tanh", y, inputs,
+      [xc, y, mean, rstd, w, N, C, has_w, has_b](const Tensor& g, const std::vector<bool>& need) {
+        const DType dt = xc.dtype();
+        const Tensor gc = g.contiguous();
+        Tensor dpre = Tensor::empty(xc.shape(), dt);
+        Tensor dx = need[0] ? Tensor::empty(xc.shape(), dt) : Tensor();
+        const size_t iw = 1, ib = has_w ? 2 : 1;
+        Tensor dw = has_w && need[iw] ? Tensor::zeros({C}, dt) : Tensor();
+        Tensor db = has_b && need[ib] ? Tensor::zeros({C}, dt) : Tensor();
+        if (dt == DType::f32) {
+          tanh_grad<float>(dpre.data<float>(), gc.data<float>(), y.data<float>(), N * C);
+          if (need[0] || dw.defined() || db.defined()) {
+            Tensor dxs = dx.defined() ? dx : Tensor::empty(xc.shape(), dt);
+            fused::layer_norm_backward<float>(dxs.data<float>(), ptr<float>(dw), ptr<float>(db), dpre.data<float>(),
+                                              xc.data<float>(), ptr<float>(w), mean.data<float>(),
+                                              rstd.data<float>(), N, C);
+          }
+        } else {
+          tanh_grad<double>(dpre.data<double>(), gc.data<double>(), y.data<double>(), N * C);
+          if (need[0] || dw.defined() || db.defined()) {
+            Tensor dxs = dx.defined() ? dx : Tensor::empty(xc.shape(), dt);
+            fused::layer_norm_backward<double>(dxs.data<double>(), ptr<double>(dw), ptr<double>(db),
+                                               dpre.data<double>(), xc.data<double>(), ptr<double>(w),
+                                               mean.data<double>(), rstd.data<double>(), N, C);
+          }
+        }
+        std::vector<Tensor> out = {dx};
+        if (has_w) out.push_back(dw);
+        if (has_b) out.push_back(db);
+        return out;
+      });
+}
+
+}  // namespace t2m::bfm
