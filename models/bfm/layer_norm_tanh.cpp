@@ -4,6 +4,7 @@
 
 #include <bit>
 #include <cmath>
+#include <algorithm>
 #include <cstdint>
 #include <string>
 
@@ -15,11 +16,16 @@ namespace t2m::bfm {
 
 namespace {
 
-// e^x for x in [-20, 0] (what tanh needs: x = -2|u|): x = n ln2 + r, |r| <= ln2/2, degree-6 Taylor for e^r,
-// 2^n through the exponent bits. Branch-free, so loops over it vectorise.
+// e^x for x <= 0 (what tanh needs: x = -2|u|), x clamped to >= -20: x = n ln2 + r, |r| <= ln2/2, degree-6
+// Taylor for e^r, 2^n through the exponent bits. Branch-free, so loops over it vectorise: the clamp is an
+// unsigned min on the bit patterns (for x <= 0 a larger magnitude is a larger pattern), because a float compare
+// is not if-converted under the default -ftrapping-math.
 inline float exp_neg(float x) {
-  x = x < -20.f ? -20.f : x;
-  const float n = std::nearbyint(x * 1.44269504f);
+  constexpr float kRound = 12582912.f;  // 1.5 * 2^23: adding it rounds to the nearest integer
+  x = std::bit_cast<float>(std::min(std::bit_cast<uint32_t>(x), std::bit_cast<uint32_t>(-20.f)));
+  const float t = x * 1.44269504f + kRound;
+  const float n = t - kRound;
+  const int32_t ni = std::bit_cast<int32_t>(t) - std::bit_cast<int32_t>(kRound);
   const float r = (x - n * 0.693145751953125f) - n * 1.428606765330187e-6f;
   float p = 1.f / 720.f;
   p = p * r + 1.f / 120.f;
@@ -28,22 +34,29 @@ inline float exp_neg(float x) {
   p = p * r + 0.5f;
   p = p * r + 1.f;
   p = p * r + 1.f;
-  return p * std::bit_cast<float>(((int32_t)n + 127) << 23);
+  return p * std::bit_cast<float>((ni + 127) << 23);
 }
 
 // tanh(u) = sign(u) (1 - e) / (1 + e), e = e^{-2|u|} in (0, 1]: no overflow, no cancellation near 0 beyond
 // the absolute error of e.
 inline float tanh_f(float u) {
   const float e = exp_neg(-2.f * std::fabs(u));
-  return std::copysign((1.f - e) / (1.f + e), u);
+  const float m = (1.f - e) / (1.f + e);  // >= 0
+  return std::bit_cast<float>(std::bit_cast<uint32_t>(m) | (std::bit_cast<uint32_t>(u) & 0x80000000u));
+}
+
+// y[i] = tanh(y[i]) over one span (a plain loop the compiler vectorises).
+void tanh_span(float* __restrict y, int64_t n) {
+  for (int64_t i = 0; i < n; ++i) y[i] = tanh_f(y[i]);
 }
 
 template <typename T>
 void tanh_inplace(T* y, int64_t n) {
   const int nt = n < kParallelGrain ? 1 : get_num_threads();
   if constexpr (std::is_same_v<T, float>) {
-#pragma omp parallel for simd schedule(static) num_threads(nt)
-    for (int64_t i = 0; i < n; ++i) y[i] = tanh_f(y[i]);
+    constexpr int64_t kChunk = 4096;
+#pragma omp parallel for schedule(static) num_threads(nt)
+    for (int64_t c = 0; c < n; c += kChunk) tanh_span(y + c, std::min(kChunk, n - c));
   } else {
 #pragma omp parallel for schedule(static) num_threads(nt)
     for (int64_t i = 0; i < n; ++i) y[i] = std::tanh(y[i]);
