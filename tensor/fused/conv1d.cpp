@@ -75,13 +75,15 @@ void im2col(T* col, const T* inp, const Conv1dShape& s, int64_t To) {
 }
 
 // dinp[b, ci, t] = sum of dcol entries that im2col read from (b, ci, t); the causal left pad adds into t = 0.
+// ci outer, b inner: the K rows of dcol that input channel ci reads are walked front to back (sequential streams)
+// and only the dinp rows jump.
 template <typename T>
 void col2im(T* dinp, const T* dcol, const Conv1dShape& s, int64_t To) {
   const int64_t BTo = s.B * To, padL = s.pad_left();
   const int nt = fused_threads(s.Cin * s.K * BTo);
 #pragma omp parallel for collapse(2) num_threads(nt) schedule(static) if (nt > 1)
-  for (int64_t b = 0; b < s.B; ++b)
-    for (int64_t ci = 0; ci < s.Cin; ++ci) {
+  for (int64_t ci = 0; ci < s.Cin; ++ci)
+    for (int64_t b = 0; b < s.B; ++b) {
       T* dx = dinp + (b * s.Cin + ci) * s.T;
       for (int64_t t = 0; t < s.T; ++t) dx[t] = 0;
       for (int64_t k = 0; k < s.K; ++k) {
