@@ -122,11 +122,14 @@ void add_train_text(CLI::App& app) {
   {
     auto a = std::make_shared<TrainArgs>();
     a->cfg.seed = 1;
-    a->cfg.steps = 1200;
+    a->cfg.steps = 600;
+    a->tm.text.mlp_ratio = 2;  // small shipped checkpoint: ~1.8M parameters (7 MB)
+    a->tm.motion.dim = 128;
     auto* c = g->add_subcommand("text", "train the text encoder + motion encoder (TMR-style InfoNCE, train split)");
     add_common(c, *a, "text_encoder");
     c->add_option("--dim", a->tm.text.dim, "text token feature width (y_{j,k})")->capture_default_str();
     c->add_option("--layers", a->tm.text.layers, "text transformer layers")->capture_default_str();
+    c->add_option("--mlp-ratio", a->tm.text.mlp_ratio, "text transformer MLP width / dim")->capture_default_str();
     c->add_option("--heads", a->tm.text.heads, "attention heads (text and motion)")->capture_default_str();
     c->add_option("--motion-dim", a->tm.motion.dim, "motion transformer width")->capture_default_str();
     c->add_option("--motion-layers", a->tm.motion.layers, "motion transformer layers")->capture_default_str();
@@ -146,7 +149,7 @@ void add_train_text(CLI::App& app) {
   {
     auto a = std::make_shared<TrainArgs>();
     a->cfg.seed = 2;
-    a->cfg.steps = 1200;
+    a->cfg.steps = 800;
     a->cfg.lr = 1e-3;
     auto* c = g->add_subcommand("evaluator", "train the GRU metric evaluator (InfoNCE, train split, seed 2)");
     add_common(c, *a, "evaluator");

@@ -30,7 +30,7 @@ namespace t2m::text {
 
 struct MotionEncoderConfig {
   int64_t feature_dim = 257;  // F (models/data/features.h kFeatureDim)
-  int64_t patch = 4;          // frames per token
+  int64_t patch = 8;          // frames per token (0.27 s at 30 fps)
   int64_t dim = 256;
   int64_t layers = 2;
   int64_t heads = 4;

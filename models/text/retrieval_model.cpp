@@ -27,6 +27,17 @@ void store_normalised(const ag::Variable& e, Tensor& out, int64_t row0) {
 
 }  // namespace
 
+EncodedBatch encode_captions(const Tokenizer& tok, const std::vector<std::string>& texts, int64_t max_len) {
+  EncodedBatch eb = tok.encode_batch(texts, max_len);
+  int64_t L = 2;
+  for (int64_t l : eb.length) L = std::max(L, l);
+  if (L < eb.ids.size(1)) {
+    eb.ids = eb.ids.slice(1, 0, L).contiguous();
+    eb.mask = eb.mask.slice(1, 0, L).contiguous();
+  }
+  return eb;
+}
+
 Crop centre_crop(int64_t frames, int64_t window) {
   Crop c;
   c.len = std::min(frames, window);
@@ -103,7 +114,7 @@ Tensor embed_texts(const RetrievalBundle& b, const std::vector<std::string>& tex
   for (int64_t i0 = 0; i0 < N; i0 += batch) {
     const int64_t n = std::min(batch, N - i0);
     std::vector<std::string> part(texts.begin() + i0, texts.begin() + i0 + n);
-    EncodedBatch eb = b.tokenizer.encode_batch(part, b.model->max_text_len());
+    EncodedBatch eb = encode_captions(b.tokenizer, part, b.model->max_text_len());
     ag::Variable e = b.model->embed_text(eb.ids, eb.mask);
     if (!out.defined()) out = Tensor::zeros({N, e.size(1)});
     store_normalised(e, out, i0);

@@ -6,7 +6,7 @@
 // the feature statistics the motions are normalised with (train split), and the window (frames) it was trained on.
 //
 // Embedding (inference, no graph, model in eval mode), both L2-normalised (unit rows, the space InfoNCE trains):
-//   embed_texts(bundle, texts)        captions -> (N, E) float32 (tokenizer.encode_batch with max_text_len()).
+//   embed_texts(bundle, texts)        captions -> (N, E) float32 (encode_captions with max_text_len()).
 //   embed_motions(bundle, clips)      raw (unnormalised) features [T_i, F] -> (N, E) float32: the centred crop of
 //                                     min(T_i, window) frames (start = (T_i - window) / 2), normalised with the
 //                                     stats, right-padded with mask 0 to the longest crop of the batch.
@@ -72,6 +72,10 @@ RetrievalCheckpoint read_retrieval_checkpoint(nn::Checkpoint ck, const std::stri
 Tensor embed_texts(const RetrievalBundle& b, const std::vector<std::string>& texts, int64_t batch = 128);
 Tensor embed_motions(const RetrievalBundle& b, const std::vector<const std::vector<float>*>& clips,
                      int64_t batch = 64);
+
+// tokenizer.encode_batch(texts, max_len) with ids and mask cut to the longest sequence of the batch (L = max
+// length, at least 2): the encoders' outputs at real tokens do not depend on the padding length.
+EncodedBatch encode_captions(const Tokenizer& tok, const std::vector<std::string>& texts, int64_t max_len);
 
 // The centred crop [start, start + len) of a clip with `frames` frames for a window (len = min(frames, window)).
 struct Crop {

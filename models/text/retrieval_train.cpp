@@ -129,7 +129,7 @@ RetrievalTrainResult train_retrieval(RetrievalBundle& bundle, const std::vector<
       if (!loader.next(batch)) throw Error("train_retrieval: empty epoch");
     }
     ++ts.cursor;
-    const EncodedBatch eb = bundle.tokenizer.encode_batch(batch.captions, model.max_text_len());
+    const EncodedBatch eb = encode_captions(bundle.tokenizer, batch.captions, model.max_text_len());
     opt.set_lr(sched.at(ts.step));
     opt.zero_grad();
     const ag::Variable et = model.embed_text(eb.ids, eb.mask);
