@@ -106,7 +106,10 @@ void VecEnv::step(const float* actions, float* obs) {
       throw Error("VecEnv::step: action[" + std::to_string(i / A) + ", " + std::to_string(i % A) +
                   "] is not finite");
   const int threads = std::max(1, std::min(N, get_num_threads()));  // the process-wide policy (tensor/parallel.h)
-#pragma omp parallel for schedule(static) num_threads(threads)
+  // Dynamic, one env at a time: a standing env (many foot contacts) costs up to ~2x a flying one, and on a shared
+  // machine one thread may be descheduled; a static split would make the whole step wait for the slowest half.
+  // Results do not depend on the schedule (every env is independent and stepped by exactly one thread).
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
   for (int i = 0; i < N; ++i) envs_[i]->step(actions + (size_t)i * A, obs ? obs + (size_t)i * D : nullptr);
 }
 

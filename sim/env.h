@@ -14,7 +14,8 @@
 // wrong-size vectors -> t2m::Error. If the physics diverges (non-finite qpos/qvel), diverged() turns true and the
 // state is left as MuJoCo reset it; call reset().
 //
-// VecEnv: N independent Envs over one shared model, stepped in parallel with OpenMP (one Env per iteration).
+// VecEnv: N independent Envs over one shared model, stepped in parallel with OpenMP (dynamic schedule, one Env
+// per iteration; the result does not depend on the thread count or schedule).
 #pragma once
 #include <mujoco/mujoco.h>
 
