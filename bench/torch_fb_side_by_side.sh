@@ -6,7 +6,10 @@
 # anchor's FLOP count, % of the 220 GFLOP/s/core peak, and the speed-up torch_ms / ours_ms. The machine load
 # (uptime) is printed before and after: with other jobs running, wall times are inflated for both.
 #
-# Usage: bash bench/torch_fb_side_by_side.sh [--build-dir DIR] [--threads N] [--only REGEX]
+# --mode cpu: instead of torch_ref.py's wall-clock loop, time torch's fb_case with bench/torch_fb_cputime.py by
+# process CPU time per step (median) and compare it with our cpu_ms (mean): the fairer number on a loaded machine.
+#
+# Usage: bash bench/torch_fb_side_by_side.sh [--build-dir DIR] [--threads N] [--only REGEX] [--mode wall|cpu]
 #   TORCH_REF=path/to/torch_ref.py (default /work/shared/anchor/torch_ref.py)
 #   T2M_OPENBLAS_ROOT=DIR  OpenBLAS (openmp) and tcmalloc unpacked under DIR (dpkg -x libopenblas0-openmp*.deb
 #                          libtcmalloc-minimal4*.deb DIR) when not installed system-wide; --best needs them.
@@ -16,12 +19,14 @@ REPO="$(cd "$(dirname "$0")/.." && pwd)"
 BUILD_DIR="$REPO/build"
 THREADS=2
 ONLY="fb-w256 B256|fb-w1024 B1024"
+MODE=wall
 while [ $# -gt 0 ]; do
   case "$1" in
     --build-dir) BUILD_DIR="$2"; shift ;;
     --threads) THREADS="$2"; shift ;;
     --only) ONLY="$2"; shift ;;
-    -h|--help) sed -n 2,15p "$0"; exit 0 ;;
+    --mode) MODE="$2"; shift ;;
+    -h|--help) sed -n 2,18p "$0"; exit 0 ;;
     *) echo "torch_fb_side_by_side.sh: unknown option '$1'" >&2; exit 2 ;;
   esac
   shift
@@ -41,33 +46,53 @@ OMP_NUM_THREADS="$THREADS" "$BENCH" --benchmark_filter="$ONLY" --benchmark_forma
 # torch_ref --only takes comma-separated substrings
 TORCH_ONLY="$(echo "$ONLY" | tr '|' ',')"
 TORCH_ARGS=(--suite fb --only "$TORCH_ONLY" --threads "$THREADS" --no-profile --json "$TMP/torch.json")
+# torch_fb_cputime.py configs (w:B:part) from the same filter
+CPU_CONFIGS="$(echo "$ONLY" | tr '|' '\n' | sed -E 's/fb-w([0-9]+) B([0-9]+)/\1 \2/' | \
+  while read -r w b; do for p in fb actor both; do printf '%s:%s:%s,' "$w" "$b" "$p"; done; done)"
+CPU_CONFIGS="${CPU_CONFIGS%,}"
 LIB=/usr/lib/x86_64-linux-gnu
 if [ -d "$LIB/openblas-openmp" ] && [ -f "$LIB/libtcmalloc_minimal.so.4" ]; then
-  echo "# torch: /usr/bin/python3 $TORCH_REF --best ${TORCH_ARGS[*]}"
-  /usr/bin/python3 "$TORCH_REF" --best "${TORCH_ARGS[@]}" > "$TMP/torch.txt" 2>&1
+  ENVV=(LD_LIBRARY_PATH="$LIB/openblas-openmp" OPENBLAS_CORETYPE=SkylakeX LD_PRELOAD="$LIB/libtcmalloc_minimal.so.4")
 elif [ -n "${T2M_OPENBLAS_ROOT:-}" ]; then
   R="$T2M_OPENBLAS_ROOT$LIB"
-  echo "# torch: --best equivalent (OpenBLAS SkylakeX + tcmalloc from $T2M_OPENBLAS_ROOT) ${TORCH_ARGS[*]}"
-  ANCHOR_REEXEC=1 LD_LIBRARY_PATH="$R/openblas-openmp" OPENBLAS_CORETYPE=SkylakeX LD_PRELOAD="$R/libtcmalloc_minimal.so.4" \
-    /usr/bin/python3 "$TORCH_REF" "${TORCH_ARGS[@]}" > "$TMP/torch.txt" 2>&1
+  ENVV=(LD_LIBRARY_PATH="$R/openblas-openmp" OPENBLAS_CORETYPE=SkylakeX LD_PRELOAD="$R/libtcmalloc_minimal.so.4")
 else
   echo "torch_fb_side_by_side.sh: OpenBLAS (libopenblas0-openmp) or tcmalloc not installed; set T2M_OPENBLAS_ROOT" >&2
   exit 1
 fi
+if [ "$MODE" = cpu ]; then
+  echo "# torch (--best environment): bench/torch_fb_cputime.py --threads $THREADS --configs $CPU_CONFIGS"
+  env "${ENVV[@]}" ANCHOR_REEXEC=1 TORCH_REF="$TORCH_REF" /usr/bin/python3 "$REPO/bench/torch_fb_cputime.py" \
+    --threads "$THREADS" --configs "$CPU_CONFIGS" > "$TMP/torch_cpu.txt"
+else
+  echo "# torch (--best environment): $TORCH_REF ${TORCH_ARGS[*]}"
+  env "${ENVV[@]}" ANCHOR_REEXEC=1 /usr/bin/python3 "$TORCH_REF" "${TORCH_ARGS[@]}" > "$TMP/torch.txt" 2>&1
+fi
 echo "# load after: $(uptime)"
 
-/usr/bin/python3 - "$TMP/ours.json" "$TMP/torch.json" <<'PY'
+/usr/bin/python3 - "$MODE" "$TMP/ours.json" "$TMP/torch.json" "$TMP/torch_cpu.txt" <<'PY'
 import json, sys
-ours = {}
-for b in json.load(open(sys.argv[1]))["benchmarks"]:
-    ours[b["name"].split("/")[0]] = b
-torch = {r["name"]: r for r in json.load(open(sys.argv[2]))["runs"][-1]["results"]}
-print(f"{'config':22s} {'thr':>3s} {'ours ms':>9s} {'ours cpu':>9s} {'GFLOP/s':>8s} {'%peak':>6s} "
-      f"{'torch ms':>9s} {'GFLOP/s':>8s} {'speed-up':>8s}")
+mode = sys.argv[1]
+ours = {b["name"].split("/")[0]: b for b in json.load(open(sys.argv[2]))["benchmarks"]}
+torch = {}
+if mode == "cpu":
+    for line in open(sys.argv[4]):
+        f = line.split()
+        torch[" ".join(f[:3])] = {"cpu": float(f[4]), "ms": float(f[5])}
+else:
+    for r in json.load(open(sys.argv[3]))["runs"][-1]["results"]:
+        torch[r["name"]] = {"ms": r["median_ms"], "gflops": r["gflops"]}
+key = "cpu" if mode == "cpu" else "ms"
+print(f"compared by {'process CPU ms per step' if mode == 'cpu' else 'wall ms per step'}")
+print(f"{'config':22s} {'thr':>3s} {'ours ms':>9s} {'ours cpu':>9s} {'GF/s(cpu)':>9s} {'%peak':>6s} "
+      f"{'torch ms':>9s} {'torch cpu':>9s} {'speed-up':>8s}")
 for name, b in ours.items():
-    t = torch.get(name)
-    tm = t["median_ms"] if t else float("nan")
-    tg = t["gflops"] if t else float("nan")
-    print(f"{name:22s} {int(b['threads']):3d} {b['ms']:9.1f} {b['cpu_ms']:9.1f} {b['GFLOP/s']:8.1f} "
-          f"{b['%peak']:6.1f} {tm:9.1f} {tg:8.1f} {tm / b['ms']:7.2f}x")
+    t = torch.get(name, {})
+    flops = b["GFLOP/s"] * b["ms"] * 1e-3  # GFLOP per step
+    gf_cpu = flops / (b["cpu_ms"] * 1e-3)  # per CPU-second: per busy core
+    mine = b["cpu_ms"] if mode == "cpu" else b["ms"]
+    theirs = t.get(key, float("nan"))
+    print(f"{name:22s} {int(b['threads']):3d} {b['ms']:9.1f} {b['cpu_ms']:9.1f} {gf_cpu:9.1f} "
+          f"{100 * gf_cpu / 220:6.1f} {t.get('ms', float('nan')):9.1f} {t.get('cpu', float('nan')):9.1f} "
+          f"{theirs / mine:7.2f}x")
 PY
