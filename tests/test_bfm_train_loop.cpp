@@ -1,0 +1,283 @@
+// test_bfm_train_loop.cpp — the BFM training loop on a tiny config: bit-identical resume, config mismatch and
+// missing files on resume; Eq 2 window latents vs FbAgent::infer_tracking_z; the training z mix; the policy
+// checkpoint (round trip, bad files); BFM tracking evaluation with the PD baseline's scorer.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "models/bfm/policy_checkpoint.h"
+#include "models/bfm/track_eval.h"
+#include "models/bfm/trainer.h"
+#include "nn/checkpoint.h"
+#include "tensor/ops.h"
+
+using namespace t2m;
+using namespace t2m::bfm;
+namespace fs = std::filesystem;
+
+namespace {
+std::string tmp_dir(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / ("t2m_test_bfm_loop_" + std::to_string(::getpid())) / name;
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d.string();
+}
+
+std::shared_ptr<const sim::Humanoid> humanoid() {
+  static auto h = sim::Humanoid::create();
+  return h;
+}
+
+sim::QposTrajectory swaying(const sim::Humanoid& h, int frames, double amp) {
+  sim::QposTrajectory q;
+  q.frames = frames;
+  q.nq = h.model()->nq;
+  q.nv = h.model()->nv;
+  for (int t = 0; t < frames; ++t) {
+    std::vector<double> p(h.model()->qpos0, h.model()->qpos0 + q.nq);
+    for (int k = 0; k < 6; ++k) p[h.hinge_qpos(k)] += amp * std::sin(0.2 * t + k);
+    q.qpos.insert(q.qpos.end(), p.begin(), p.end());
+  }
+  sim::trajectory_velocities(h, q);
+  return q;
+}
+
+const RefMotions& toy_refs() {
+  static const RefMotions r = [] {
+    RefMotions x;
+    x.add(*humanoid(), "a", swaying(*humanoid(), 14, 0.05));
+    x.add(*humanoid(), "b", swaying(*humanoid(), 20, 0.1));
+    return x;
+  }();
+  return r;
+}
+
+BfmTrainConfig tiny_config() {
+  BfmTrainConfig c;
+  c.fb.hidden = 16;
+  c.fb.b_hidden = 16;
+  c.fb.z_dim = 6;
+  c.fb.track_window = 3;
+  c.seed = 5;
+  c.seed_transitions = 120;
+  c.envs = 2;
+  c.max_episode_steps = 10;
+  c.total_updates = 100;
+  c.offline_updates = 2;
+  c.collect_every = 2;
+  c.collect_transitions = 12;
+  c.online_capacity = 40;
+  c.batch = 16;
+  c.bc_batch = 8;
+  return c;
+}
+
+std::vector<std::vector<float>> params_of(FbAgent& a) {
+  std::vector<std::vector<float>> out;
+  for (const auto& [n, v] : a.named_parameters()) out.push_back(v.data().to_vector<float>());
+  return out;
+}
+}  // namespace
+
+TEST(BfmTrainLoop, ResumeIsBitIdentical) {
+  const std::string d1 = tmp_dir("straight"), d2 = tmp_dir("chunks");
+  std::vector<std::vector<float>> straight;
+  std::vector<float> straight_online;
+  {
+    BfmTrainer t(tiny_config(), humanoid(), toy_refs(), d1);
+    EXPECT_FALSE(t.resumed());
+    t.prepare_seed();
+    EXPECT_EQ(t.seed_buffer().size(), 120);
+    for (int i = 0; i < 7; ++i) {
+      const BfmStepStats s = t.train_step();
+      EXPECT_TRUE(std::isfinite(s.fb.fb_loss));
+      EXPECT_EQ(s.collected, i >= 2 && i % 2 == 0);
+    }
+    EXPECT_EQ(t.online_buffer().size(), 36);
+    straight = params_of(t.agent());
+    for (int64_t r = 0; r < t.online_buffer().size(); ++r)
+      straight_online.insert(straight_online.end(), t.online_buffer().obs_row(r),
+                             t.online_buffer().obs_row(r) + 313);
+  }
+  {
+    BfmTrainer t(tiny_config(), humanoid(), toy_refs(), d2);
+    t.prepare_seed();
+    for (int i = 0; i < 3; ++i) t.train_step();
+    t.save();
+  }
+  {
+    BfmTrainer t(tiny_config(), humanoid(), toy_refs(), d2);  // resumes at step 3
+    EXPECT_TRUE(t.resumed());
+    EXPECT_EQ(t.step(), 3);
+    t.prepare_seed();  // loads the same seed buffer
+    for (int i = 0; i < 4; ++i) t.train_step();
+    const auto p = params_of(t.agent());
+    ASSERT_EQ(p.size(), straight.size());
+    for (size_t k = 0; k < p.size(); ++k) EXPECT_EQ(p[k], straight[k]) << "parameter " << k;
+    std::vector<float> online;
+    for (int64_t r = 0; r < t.online_buffer().size(); ++r)
+      online.insert(online.end(), t.online_buffer().obs_row(r), t.online_buffer().obs_row(r) + 313);
+    EXPECT_EQ(online, straight_online);
+  }
+  // A seed buffer recollected from scratch is the same (pure function of the config).
+  EXPECT_EQ(ReplayBuffer::load(d1 + "/seed_buffer.t2mckpt").sample(64, *std::make_unique<Generator>(1)).obs
+                .to_vector<float>(),
+            ReplayBuffer::load(d2 + "/seed_buffer.t2mckpt").sample(64, *std::make_unique<Generator>(1)).obs
+                .to_vector<float>());
+}
+
+TEST(BfmTrainLoop, ResumeRejectsOtherConfigAndMissingFiles) {
+  const std::string d = tmp_dir("reject");
+  {
+    BfmTrainer t(tiny_config(), humanoid(), toy_refs(), d);
+    t.prepare_seed();
+    for (int i = 0; i < 3; ++i) t.train_step();
+    t.save();
+  }
+  BfmTrainConfig other = tiny_config();
+  other.batch = 12;
+  EXPECT_THROW(BfmTrainer(other, humanoid(), toy_refs(), d), Error);
+  other = tiny_config();
+  other.total_updates = 500;  // extending a run is allowed
+  EXPECT_NO_THROW(BfmTrainer(other, humanoid(), toy_refs(), d));
+  // The seed buffer is required on resume.
+  fs::rename(d + "/seed_buffer.t2mckpt", d + "/seed.bak");
+  {
+    BfmTrainer t(tiny_config(), humanoid(), toy_refs(), d);
+    EXPECT_THROW(t.prepare_seed(), Error);
+  }
+  fs::rename(d + "/seed.bak", d + "/seed_buffer.t2mckpt");
+  // The online buffer named by the state is required.
+  for (const auto& e : fs::directory_iterator(d))
+    if (e.path().filename().string().rfind("online-", 0) == 0) fs::remove(e.path());
+  EXPECT_THROW(BfmTrainer(tiny_config(), humanoid(), toy_refs(), d), Error);
+  BfmTrainConfig bad = tiny_config();
+  bad.z_track = 0.9;
+  bad.z_goal = 0.3;
+  EXPECT_THROW(BfmTrainer(bad, humanoid(), toy_refs(), tmp_dir("bad")), Error);
+  EXPECT_THROW(BfmTrainConfig::from_json({{"no_such_key", 1}}), Error);
+  EXPECT_EQ(BfmTrainConfig::from_json(tiny_config().to_json()).to_json(), tiny_config().to_json());
+}
+
+TEST(BfmTrainLoop, WindowLatentsMatchAgentEq2) {
+  FbAgent agent(tiny_config().fb, 3);
+  const RefMotions& r = toy_refs();
+  const int c = 1, T = r.frames(c);
+  Tensor s = Tensor::empty({T, 313});
+  std::copy(r.obs_at(c, 0), r.obs_at(c, 0) + T * 313, s.data<float>());
+  const Tensor z = agent.infer_tracking_z(s);  // [T-1, d]
+  std::vector<int64_t> clip(T - 1, c), frame(T - 1);
+  for (int t = 0; t < T - 1; ++t) frame[t] = t;
+  const Tensor w = window_latents(r, clip.data(), frame.data(), T - 1, 3, agent_encoder(agent));
+  ASSERT_EQ(w.shape(), z.shape());
+  for (int t = 0; t < T - 1; ++t)
+    for (int j = 0; j < 6; ++j) EXPECT_NEAR(w.at({t, j}), z.at({t, j}), 1e-5) << t << " " << j;
+  std::vector<int64_t> last = {T - 1};
+  EXPECT_THROW(window_latents(r, clip.data(), last.data(), 1, 3, agent_encoder(agent)), Error);
+}
+
+TEST(BfmTrainLoop, TrainingZMix) {
+  FbAgent agent(tiny_config().fb, 3);
+  const RefMotions& r = toy_refs();
+  const EncodeFn enc = agent_encoder(agent);
+  const Tensor next = rand_normal({10, 313}, *std::make_unique<Generator>(9));
+  Generator g1(4), g2(4);
+  const Tensor a = sample_training_z(10, ZMix{0.3, 0.3}, r, 3, next, enc, 6, g1);
+  const Tensor b = sample_training_z(10, ZMix{0.3, 0.3}, r, 3, next, enc, 6, g2);
+  EXPECT_EQ(a.to_vector<float>(), b.to_vector<float>());
+  for (int i = 0; i < 10; ++i) {
+    double n2 = 0;
+    for (int j = 0; j < 6; ++j) n2 += a.at({i, j}) * a.at({i, j});
+    EXPECT_NEAR(std::sqrt(n2), std::sqrt(6.0), 1e-4);
+  }
+  // All-goal: row i is B(next_obs[(i + 5) % 10]).
+  Generator g3(1);
+  const Tensor goal = sample_training_z(10, ZMix{0.0, 1.0}, r, 3, next, enc, 6, g3);
+  const Tensor bn = agent.embed_backward(next);
+  for (int i = 0; i < 10; ++i)
+    for (int j = 0; j < 6; ++j) EXPECT_NEAR(goal.at({i, j}), bn.at({(i + 5) % 10, j}), 1e-5);
+  // All-tracking: every row is an Eq 2 latent of some reference window.
+  Generator g4(2);
+  const Tensor tr = sample_training_z(8, ZMix{1.0, 0.0}, r, 3, Tensor(), enc, 6, g4);
+  std::vector<int64_t> clip, frame;
+  for (int c = 0; c < r.clips(); ++c)
+    for (int t = 0; t + 1 < r.frames(c); ++t) clip.push_back(c), frame.push_back(t);
+  const Tensor all = window_latents(r, clip.data(), frame.data(), (int64_t)clip.size(), 3, enc);
+  for (int i = 0; i < 8; ++i) {
+    double best = 1e9;
+    for (int64_t k = 0; k < all.size(0); ++k) {
+      double e = 0;
+      for (int j = 0; j < 6; ++j) e += std::fabs(tr.at({i, j}) - all.at({k, j}));
+      best = std::min(best, e);
+    }
+    EXPECT_LT(best, 1e-4) << "row " << i;
+  }
+  EXPECT_THROW(sample_training_z(10, ZMix{0.8, 0.3}, r, 3, next, enc, 6, g1), Error);
+  EXPECT_THROW(sample_training_z(4, ZMix{0.0, 0.5}, r, 3, next, enc, 6, g1), Error);  // next_obs rows != n
+}
+
+TEST(BfmPolicyCheckpoint, RoundTripAndBadFiles) {
+  FbAgent agent(tiny_config().fb, 11);
+  const std::string d = tmp_dir("policy");
+  save_policy(agent, d + "/p.t2mckpt", {{"updates", 7}});
+  nlohmann::json info;
+  auto back = load_policy(d + "/p.t2mckpt", &info);
+  EXPECT_EQ(info["updates"], 7);
+  const Tensor s = rand_normal({5, 313}, *std::make_unique<Generator>(2));
+  const Tensor z = agent.sample_sphere_z(5, *std::make_unique<Generator>(3));
+  EXPECT_EQ(back->actor_mean(s, z).to_vector<float>(), agent.actor_mean(s, z).to_vector<float>());
+  EXPECT_EQ(back->embed_backward(s).to_vector<float>(), agent.embed_backward(s).to_vector<float>());
+  nn::Checkpoint ck = nn::Checkpoint::load(d + "/p.t2mckpt");
+  for (const auto& n : ck.names()) EXPECT_TRUE(is_policy_parameter(n)) << n;
+  EXPECT_THROW(load_policy(d + "/missing.t2mckpt"), Error);
+  const auto edited = [&](const std::function<void(nn::Checkpoint&)>& f) {
+    nn::Checkpoint c = nn::Checkpoint::load(d + "/p.t2mckpt");
+    f(c);
+    c.save(d + "/e.t2mckpt");
+    return d + "/e.t2mckpt";
+  };
+  EXPECT_THROW(load_policy(edited([](nn::Checkpoint& c) { c.meta["format"] = "t2m-replay-1"; })), Error);
+  EXPECT_THROW(load_policy(edited([](nn::Checkpoint& c) { c.meta["fb"]["z_dim"] = 7; })), Error);  // shapes
+  EXPECT_THROW(load_policy(edited([](nn::Checkpoint& c) { c.meta["fb"]["hidden"] = -2; })), Error);
+  EXPECT_THROW(load_policy(edited([](nn::Checkpoint& c) { c.put("extra", Tensor::zeros({1})); })), Error);
+  EXPECT_THROW(load_policy(edited([&](nn::Checkpoint& c) {
+                 nn::Checkpoint fresh;
+                 fresh.meta = c.meta;
+                 for (const auto& n : c.names())
+                   if (n.rfind("B.", 0) != 0) fresh.put(n, c.get(n));
+                 c = fresh;
+               })),
+               Error);
+}
+
+TEST(BfmTrackEval, UsesThePdScorerOnEveryFrame) {
+  FbAgent agent(tiny_config().fb, 1);
+  const RefMotions& r = toy_refs();
+  const auto bfm = track_bfm(agent, humanoid(), r);
+  const auto pd = track_pd_all(humanoid(), r);
+  ASSERT_EQ(bfm.size(), 2u);
+  for (int c = 0; c < 2; ++c) {
+    EXPECT_EQ(bfm[c].frames, r.frames(c));
+    EXPECT_EQ(pd[c].frames, r.frames(c));
+    EXPECT_GE(bfm[c].frames_ok, 1);  // frame 0 is the reference state
+    EXPECT_TRUE(std::isfinite(bfm[c].mpjpe_m));
+    // PD follows a slow sway for <1 s; its result equals sim::track_pd's.
+    sim::Env env(humanoid());
+    const sim::PdResult direct = sim::track_pd(env, r.trajectory(c));
+    EXPECT_EQ(pd[c].mpjpe_m, direct.mpjpe_m);
+    EXPECT_EQ(pd[c].success, direct.success);
+  }
+  // An untrained policy (random actions around mid-range targets) tracks worse than PD.
+  EXPECT_GT(bfm[1].mpjpe_m, pd[1].mpjpe_m);
+  const nlohmann::json s = summarize_tracking(pd);
+  EXPECT_EQ(s["clips"], 2);
+  EXPECT_NEAR(s["mpjpe_m"].get<double>(), (pd[0].mpjpe_m + pd[1].mpjpe_m) / 2, 1e-12);
+  const auto kl = window_action_kl(agent, r, 1);
+  ASSERT_EQ(kl.size(), 2u);
+  EXPECT_GT(kl[0], 0.0);
+  const auto kl_same = window_action_kl(agent, r, 3);  // z_hat = z
+  EXPECT_NEAR(kl_same[0], 0.0, 1e-9);
+}
