@@ -55,6 +55,7 @@ void add_common(CLI::App* c, TrainArgs& a, const std::string& kind) {
   c->add_option("--save-every", a.cfg.save_every, "steps between resumable checkpoints")->capture_default_str();
   c->add_option("--eval-every", a.cfg.eval_every, "steps between val R-precision checks (0 = never)")
       ->capture_default_str();
+  c->add_option("--stop-at", a.cfg.stop_at, "stop (resumably) after this many steps in total (0 = run to --steps)");
   c->add_option("--threads", a.data.threads, "threads (0 = default); results are deterministic per count");
 }
 

@@ -10,7 +10,8 @@
 //   pooled = proj(masked_mean(tokens, patch mask))     (B, E)
 // Padded frames are zero inside the input projection's window only when the caller zeroes them (the loader
 // does); the encoder multiplies x by the frame mask first, so values written into padding never matter.
-// Parameters (in order; own before children's): pos_emb, in_proj.{weight,bias}, block<l>.*, norm.{weight,bias}, proj.{weight,bias}.
+// Parameters (in order; own before children's): pos_emb, in_proj.{weight,bias}, block<l>.*, norm.{weight,bias},
+// proj.{weight,bias}.
 // Errors (t2m::Error, "MotionEncoder: ..."): bad config at construction; x not (B, T, F) float with F = config,
 // T < 1, more than max_patches patches, mask not (B, T) float, a sequence with no real frame.
 #pragma once

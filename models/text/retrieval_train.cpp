@@ -122,7 +122,8 @@ RetrievalTrainResult train_retrieval(RetrievalBundle& bundle, const std::vector<
   RetrievalTrainResult res;
   res.final_loss = NAN;
   model.train();
-  while (ts.step < cfg.steps) {
+  const int64_t end = cfg.stop_at > 0 ? std::min(cfg.stop_at, cfg.steps) : cfg.steps;
+  while (ts.step < end) {
     if (!loader.next(batch)) {
       ++ts.epoch, ts.cursor = 0;
       loader.start_epoch(ts.epoch);
@@ -156,7 +157,7 @@ RetrievalTrainResult train_retrieval(RetrievalBundle& bundle, const std::vector<
     log.write(rec);
     bar.update(ts.step, {{"loss", loss}, {"scale", std::exp(alpha.data().item())}});
     res.final_loss = bar.smoothed("loss");
-    if (ts.step % cfg.save_every == 0 || ts.step == cfg.steps) ts.save(paths.state);
+    if (ts.step % cfg.save_every == 0 || ts.step == end) ts.save(paths.state);
   }
   bar.finish();
   model.eval();

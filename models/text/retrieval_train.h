@@ -41,6 +41,8 @@ struct RetrievalTrainConfig {
   uint64_t seed = 0;
   int64_t save_every = 100;
   int64_t eval_every = 250;  // 0: never (val scores only at the end)
+  int64_t stop_at = 0;       // > 0: save and return once this many steps are done (a chunk; not in to_json, so a
+                             // later --resume with another stop_at continues the same run)
   nlohmann::json to_json() const;
 };
 

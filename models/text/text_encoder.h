@@ -9,7 +9,8 @@
 // mask (B, L) float32, 1 = real token (<bos>, words, <eos>), as Tokenizer::encode_batch gives it. Padded
 // positions never influence real positions (key padding mask) nor the pooled feature (masked mean), so the
 // outputs at real tokens do not depend on the padding length or the ids written into padding.
-// Parameters (in order; Module lists its own before its children's): pos_emb, tok_emb.weight, block<l>.*, norm.{weight,bias}, proj.{weight,bias}.
+// Parameters (in order; a Module lists its own before its children's): pos_emb, tok_emb.weight, block<l>.*,
+// norm.{weight,bias}, proj.{weight,bias}.
 // Init: tok_emb and pos_emb N(0, 0.02^2) (tok_emb drawn N(0, 1) by nn::Embedding, then scaled); the rest as their modules (PyTorch defaults) — all from the Generator.
 // Works in float32 and (after to(f64)) float64.
 // Errors (t2m::Error, message starts "TextEncoder:"): config sizes < 1, dim not divisible by heads (at
