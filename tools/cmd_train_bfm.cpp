@@ -37,8 +37,18 @@ struct TrainBfmArgs {
   double minutes = 0, save_minutes = 5;
   int64_t updates = 0;
   int threads = 0, log_every = 20;
+  bool export_only = false;
   bfm::BfmTrainConfig cfg;
 };
+
+void export_policy(bfm::BfmTrainer& tr, const bfm::BfmTrainConfig& cfg, const std::string& path) {
+  const json info = {{"updates", tr.step()},
+                     {"run_config", cfg.to_json()},
+                     {"data", "Bandai-Namco-Research-Motiondataset (CC BY-NC 4.0), train split"}};
+  if (const fs::path p(path); p.has_parent_path()) fs::create_directories(p.parent_path());
+  bfm::save_policy(tr.agent(), path, info);
+  std::printf("wrote %s (actor + B + config, update %lld)\n", path.c_str(), (long long)tr.step());
+}
 
 void run_train_bfm(const TrainBfmArgs& a, CLI::App* app) {
   using clock = std::chrono::steady_clock;
@@ -92,6 +102,12 @@ void run_train_bfm(const TrainBfmArgs& a, CLI::App* app) {
 
   bfm::BfmTrainer tr(cfg, h, refs, dir);
   if (tr.resumed()) std::fprintf(stderr, "train bfm: resumed %s at update %lld\n", dir.c_str(), (long long)tr.step());
+  if (a.export_only) {  // the saved state's policy, nothing trained or written in DIR
+    if (!tr.resumed()) throw Error("train bfm: --export-only needs a saved state in " + dir);
+    if (a.export_path.empty()) throw Error("train bfm: --export-only needs --export PATH");
+    export_policy(tr, cfg, a.export_path);
+    return;
+  }
   {
     t0 = clock::now();
     t2m::nn::ProgressOptions po;
@@ -153,14 +169,7 @@ void run_train_bfm(const TrainBfmArgs& a, CLI::App* app) {
   std::printf("train bfm: %lld updates this run in %.1f s (%.2f updates/s), at %lld / %lld; state %s\n",
               (long long)done_here, secs, done_here / std::max(secs, 1e-9), (long long)tr.step(),
               (long long)cfg.total_updates, tr.state_path().c_str());
-  if (!a.export_path.empty()) {
-    const json info = {{"updates", tr.step()},
-                       {"run_config", cfg.to_json()},
-                       {"data", "Bandai-Namco-Research-Motiondataset (CC BY-NC 4.0), train split"}};
-    if (const fs::path p(a.export_path); p.has_parent_path()) fs::create_directories(p.parent_path());
-    bfm::save_policy(tr.agent(), a.export_path, info);
-    std::printf("wrote %s (actor + B + config)\n", a.export_path.c_str());
-  }
+  if (!a.export_path.empty()) export_policy(tr, cfg, a.export_path);
   std::fprintf(stderr, "train bfm: total wall %.1f s\n", std::chrono::duration<double>(clock::now() - t_start).count());
 }
 
@@ -177,6 +186,7 @@ void add_train_bfm(CLI::App& app) {
   c->add_option("--log-every", a.log_every, "log line every N updates")->capture_default_str()->check(CLI::PositiveNumber);
   c->add_option("--threads", a.threads, "threads (0 = default); results are deterministic per thread count");
   c->add_option("--export", a.export_path, "write the policy checkpoint (actor + B + config) here at the end");
+  c->add_flag("--export-only", a.export_only, "only write --export from the saved state (no training, DIR unchanged)");
   c->add_option("--seed", cfg.seed, "run seed")->capture_default_str();
   c->add_option("--total-updates", cfg.total_updates, "updates of the whole run")->capture_default_str();
   c->add_option("--offline-updates", cfg.offline_updates, "updates before online collection")->capture_default_str();
