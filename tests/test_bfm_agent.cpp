@@ -246,6 +246,23 @@ TEST(BfmAgent, SaveLoadResumesBitIdentically) {
   expect_error([&] { w.load(path); }, {"FbAgent", "config mismatch", "hidden"});
   EXPECT_TRUE(same_params(w, w0));
   expect_error([&] { w.load(path + ".missing"); }, {"FbAgent"});
+  // a truncated file and a flipped byte are refused (checksum), and the agent is unchanged
+  const auto size = std::filesystem::file_size(path);
+  std::filesystem::resize_file(path, size / 2);
+  bfm::FbAgent c3(c, 5), c3ref(c, 5);
+  expect_error([&] { c3.load(path); }, {"FbAgent", path});
+  a.save(path);
+  {
+    std::FILE* f = std::fopen(path.c_str(), "r+b");
+    ASSERT_NE(f, nullptr);
+    std::fseek(f, (long)(size * 3 / 4), SEEK_SET);
+    const int ch = std::fgetc(f);
+    std::fseek(f, (long)(size * 3 / 4), SEEK_SET);
+    std::fputc(ch ^ 0x5a, f);
+    std::fclose(f);
+  }
+  expect_error([&] { c3.load(path); }, {"FbAgent", "checksum"});
+  EXPECT_TRUE(same_params(c3, c3ref));
   std::filesystem::remove(path);
 }
 
