@@ -4,9 +4,11 @@
 #pragma GCC optimize("no-trapping-math")
 #include "tensor/fused/attention.h"
 
+#include <atomic>
 #include <cmath>
 #include <string>
 
+#include "tensor/fused/attention_small.h"
 #include "tensor/fused/fast_exp.h"
 #include "tensor/fused/kernel_util.h"
 #include "tensor/fused/scratch.h"
@@ -27,7 +29,21 @@ void check_shape(const char* op, const AttentionShape& s) {
                 " Tk=" + std::to_string(s.Tk));
 }
 
+std::atomic<int> g_forced_path{0};  // 0 auto, 1 small, 2 gemm
+
+bool use_small(const AttentionShape& s) { return g_forced_path.load() != 2 && attention_small_eligible(s); }
+
 }  // namespace
+
+const char* attention_path(const AttentionShape& s) { return use_small(s) ? "small" : "gemm"; }
+
+void attention_force_path(const char* name) {
+  const std::string n = name ? name : "";
+  if (n == "auto") g_forced_path = 0;
+  else if (n == "small") g_forced_path = 1;
+  else if (n == "gemm") g_forced_path = 2;
+  else throw Error("attention_force_path: unknown path '" + n + "' (small, gemm, auto)");
+}
 
 double attention_forward_flops(const AttentionShape& s) {
   return 4.0 * (double)s.B * (double)s.H * (double)s.Tq * (double)s.Tk * (double)s.d;
@@ -44,6 +60,7 @@ void attention_forward(T* out, T* att, const T* q, const T* k, const T* v, const
   check_ptr(op, "q", q);
   check_ptr(op, "k", k);
   check_ptr(op, "v", v);
+  if (use_small(s)) return attention_small_forward(out, att, q, k, v, key_mask, s);
   const int64_t BH = s.B * s.H, Tq = s.Tq, Tk = s.Tk, d = s.d;
   const T scale = (T)(1.0 / std::sqrt((double)d));
   gemm_batched(false, true, BH, Tq, Tk, d, scale, q, d, Tq * d, k, d, Tk * d, (T)0, att, Tk, Tq * Tk);
@@ -87,6 +104,12 @@ void attention_backward(T* dq, T* dk, T* dv, const T* dout, const T* att, const 
   if (s.B == 0) return;
   check_ptr(op, "dout", dout);
   check_ptr(op, "att", att);
+  if (use_small(s)) {
+    if (dq || dk) check_ptr(op, "v", v);
+    if (dq) check_ptr(op, "k", k);
+    if (dk) check_ptr(op, "q", q);
+    return attention_small_backward(dq, dk, dv, dout, att, q, k, v, s);
+  }
   const int64_t BH = s.B * s.H, Tq = s.Tq, Tk = s.Tk, d = s.d;
   const T scale = (T)(1.0 / std::sqrt((double)d));
   if (dv) gemm_batched(true, false, BH, Tk, d, Tq, (T)1, att, Tk, Tq * Tk, dout, d, Tq * d, (T)0, dv, d, Tk * d);

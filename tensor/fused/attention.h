@@ -8,7 +8,9 @@
 // gradient.
 // Backward writes dq/dk/dv (=); any of them may be null to skip.
 // Scratch (thread-local): slot 2, B*H*Tq*Tk elements (dS) in the backward.
-// The three products per direction are t2m::gemm_batched calls; deterministic for a fixed thread count.
+// Two implementations: many small heads (Tq * Tk <= 4096, d <= 256: the fm generator's shapes) run per head in
+// plain loops (attention_small.h; bitwise identical for any thread count); larger heads use three
+// t2m::gemm_batched products per direction (deterministic for a fixed thread count).
 // Errors: t2m::Error for sizes < 1 (B may be 0), causal with Tq != Tk, null required pointers.
 #pragma once
 #include <cstdint>
@@ -29,6 +31,12 @@ void attention_forward(T* out, T* att, const T* q, const T* k, const T* v, const
 template <typename T>
 void attention_backward(T* dq, T* dk, T* dv, const T* dout, const T* att, const T* q, const T* k, const T* v,
                         const AttentionShape& s);
+
+// The implementation attention_forward/backward use for s: "small" or "gemm". attention_force_path("small" |
+// "gemm" | "auto") overrides the choice process-wide (tests, benchmarks); "small" still falls back to "gemm" for
+// shapes it cannot serve. Error for another name.
+const char* attention_path(const AttentionShape& s);
+void attention_force_path(const char* name);
 
 // FLOPs of the forward GEMMs (4 * B*H*Tq*Tk*d); the backward does twice that.
 double attention_forward_flops(const AttentionShape& s);
