@@ -1,0 +1,106 @@
+// bench_train_fm.cpp — one full training step of the anchor's fm configs (shared/anchor/REFERENCE.md "fm",
+// torch_ref.py fm_case): zero grad, x0 ~ N(0, I), t ~ U[0, 1), x_t = (1 - t) x0 + t x1 (Eq 14), v = model(x_t, t,
+// tok), loss = mse(v, x1 - x0) (Eq 15), backward, AdamW (lr 1e-4, weight decay 0.01 on every parameter, as
+// torch.optim.AdamW(model.parameters())), on the flow generator (models/text2bfm/generator.h) with text tokens
+// (B, 24, 768) and no condition dropout (the anchor has none; same work per step).
+// Configs: fm-small B{32, 256} x Tm{8, 16}; fm-paper B32 Tm8, B32 Tm16, B256 Tm8.
+// Counters: ms (wall clock per step), cpu_ms (process CPU time per step over all threads: less sensitive to other
+// processes holding a core), GFLOP/s (Linear + attention-matmul FLOPs counted as torch_ref counts them: 3 x the
+// forward FLOPs, so the rates compare directly), %peak (GFLOP/s against 220 GFLOP/s per thread).
+// Run: build-NAME/bench_train_fm --benchmark_min_time=2   (threads: OMP_NUM_THREADS, default 2 on this VM).
+#include <benchmark/benchmark.h>
+
+#include <chrono>
+#include <ctime>
+
+#include "models/text2bfm/generator.h"
+#include "nn/loss_flow.h"
+#include "nn/optim_adamw.h"
+#include "tensor/parallel.h"
+#include "tensor/rng.h"
+
+using namespace t2m;
+using namespace t2m::text2bfm;
+
+namespace {
+
+constexpr int64_t kTextLen = 24;
+
+double process_cpu_seconds() {
+  timespec ts;
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+// Forward FLOPs of the anchor FlowTransformer as torch_ref counts them: 2 * rows * in * out per Linear, plus
+// 2 * (QK^T + PV) products per attention (4 * B * Tq * Tk * D).
+double fm_forward_flops(const FlowGeneratorConfig& c, int64_t B, int64_t Tm, int64_t L) {
+  const double W = (double)c.width, Cx = (double)c.ctx_dim, A = (double)c.adapter.width, bt = (double)(B * Tm),
+               bl = (double)(B * L), b = (double)B;
+  auto lin = [](double rows, double in, double out) { return 2.0 * rows * in * out; };
+  double f = lin(bt, (double)c.latent, W) + lin(b, (double)c.freq_dim, W) + lin(b, W, W);
+  if (c.adapter.tok_dim != c.adapter.width) f += lin(bl, (double)c.adapter.tok_dim, A);
+  f += (double)c.adapter.depth * (lin(bl, A, 3 * A) + lin(bl, A, A) + lin(bl, A, 4 * A) + lin(bl, 4 * A, A) +
+                                  4.0 * b * (double)L * (double)L * A);
+  f += lin(bl, A, Cx);
+  const double blk = lin(b, W, 6 * W) + lin(bt, W, 3 * W) + lin(bt, W, W) + 4.0 * b * Tm * Tm * W +  // self
+                     lin(bt, W, W) + lin(bl, Cx, 2 * W) + lin(bt, W, W) + 4.0 * b * Tm * L * W +      // cross
+                     lin(bt, W, 4 * W) + lin(bt, 4 * W, W);                                         // MLP
+  f += (double)c.depth * blk;
+  return f + lin(b, W, 2 * W) + lin(bt, W, (double)c.latent);
+}
+
+void BM_train_fm(benchmark::State& st, const std::string& name) {
+  const int64_t B = st.range(0), Tm = st.range(1);
+  const FlowGeneratorConfig cfg = FlowGeneratorConfig::by_name(name);
+  Generator gen(1);
+  FlowGenerator model(cfg, gen);
+  model.train();
+  nn::AdamWOptions ao;
+  ao.lr = 1e-4;
+  ao.weight_decay = 0.01;
+  nn::AdamW opt(model.named_parameters(), ao);
+  const ag::Variable x1(rand_normal({B, Tm, cfg.latent}, gen));
+  const ag::Variable tok(rand_normal({B, kTextLen, cfg.adapter.tok_dim}, gen));
+  auto step = [&] {
+    opt.zero_grad();
+    const nn::FlowSample s = nn::sample_flow_pair(x1.data(), gen);  // t, x0, x_t (Eq 14)
+    const ag::Variable v = model.forward(ag::Variable(s.x_t), s.t, tok);
+    ag::Variable loss = nn::flow_matching_loss(v, ag::Variable(s.x0), x1);  // Eq 15
+    loss.backward();
+    opt.step();
+    return loss.item();
+  };
+  step();  // warm-up: scratch buffers, allocator caches, optimizer state
+  const double cpu0 = process_cpu_seconds();
+  const auto t0 = std::chrono::steady_clock::now();
+  for (auto _ : st) benchmark::DoNotOptimize(step());
+  const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double it = (double)st.iterations(), flops = 3.0 * fm_forward_flops(cfg, B, Tm, kTextLen);
+  st.counters["ms"] = sec / it * 1e3;
+  st.counters["cpu_ms"] = (process_cpu_seconds() - cpu0) / it * 1e3;
+  st.counters["GFLOP/s"] = flops * it / sec * 1e-9;
+  st.counters["%peak"] = 100.0 * flops * it / sec * 1e-9 / (220.0 * get_num_threads());
+  st.counters["threads"] = get_num_threads();
+  st.counters["params_M"] = (double)model.num_parameters() * 1e-6;
+}
+
+}  // namespace
+
+BENCHMARK_CAPTURE(BM_train_fm, fm_small, std::string("fm-small"))
+    ->ArgNames({"B", "Tm"})
+    ->Args({32, 8})
+    ->Args({256, 8})
+    ->Args({32, 16})
+    ->Args({256, 16})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_train_fm, fm_paper, std::string("fm-paper"))
+    ->ArgNames({"B", "Tm"})
+    ->Args({32, 8})
+    ->Args({32, 16})
+    ->Args({256, 8})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+BENCHMARK_MAIN();

@@ -1,0 +1,118 @@
+#!/usr/bin/env bash
+# torch_fm_side_by_side.sh — optional measuring aid (never run by tests or CI): one full fm training step
+# (REFERENCE.md "fm": zero grad, x_t of Eq 14, forward, Eq 15 loss, backward, AdamW) timed in the same session for
+# ours (bench_train_fm) and PyTorch (torch_ref.py's own fm_case step, --best environment: OpenBLAS SkylakeX +
+# tcmalloc). Configs fm-small B{32,256} x Tm{8,16}, fm-paper B32 Tm8, B32 Tm16, B256 Tm8. Prints per config: wall
+# ms (median) and process CPU ms per step (median; the robust figure on a shared VM, where wall time mostly measures
+# other people's jobs), GFLOP/s (torch_ref's FLOP count), % of 220 GFLOP/s per thread, and the ratios torch/ours
+# (> 1: ours faster); plus the load average before and after.
+#
+# Usage: bash bench/torch_fm_side_by_side.sh [--build-dir DIR] [--threads 1,2] [--steps N]
+#            [--configs small:32x8,small:256x8,small:32x16,small:256x16,paper:32x8,paper:32x16,paper:256x8]
+#   TORCH_REF=path/to/torch_ref.py (default /work/shared/anchor/torch_ref.py)
+#   T2M_OPENBLAS_ROOT=DIR  use OpenBLAS/tcmalloc unpacked under DIR (`apt-get download libopenblas0-openmp
+#                          libtcmalloc-minimal4; dpkg -x <deb> DIR`) when they are not installed system-wide.
+set -euo pipefail
+REPO="$(cd "$(dirname "$0")/.." && pwd)"
+BUILD_DIR="$REPO/build"
+THREADS="2"
+CONFIGS="small:32x8,small:256x8,small:32x16,small:256x16,paper:32x8,paper:32x16,paper:256x8"
+STEPS=5
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --build-dir) BUILD_DIR="$2"; shift ;;
+    --threads) THREADS="$2"; shift ;;
+    --configs) CONFIGS="$2"; shift ;;
+    --steps) STEPS="$2"; shift ;;
+    -h|--help) sed -n 2,16p "$0"; exit 0 ;;
+    *) echo "torch_fm_side_by_side.sh: unknown option '$1'" >&2; exit 2 ;;
+  esac
+  shift
+done
+TORCH_REF="${TORCH_REF:-/work/shared/anchor/torch_ref.py}"
+BENCH="$BUILD_DIR/bench_train_fm"
+[ -x "$BENCH" ] || { echo "torch_fm_side_by_side.sh: $BENCH not built (cmake --build $BUILD_DIR --target bench_train_fm)" >&2; exit 1; }
+[ -f "$TORCH_REF" ] || { echo "torch_fm_side_by_side.sh: $TORCH_REF not found" >&2; exit 1; }
+LIB=/usr/lib/x86_64-linux-gnu
+if [ -d "$LIB/openblas-openmp" ] && [ -f "$LIB/libtcmalloc_minimal.so.4" ]; then
+  R=""
+elif [ -n "${T2M_OPENBLAS_ROOT:-}" ]; then
+  R="$T2M_OPENBLAS_ROOT"
+else
+  echo "torch_fm_side_by_side.sh: OpenBLAS (libopenblas0-openmp) or tcmalloc not installed; set T2M_OPENBLAS_ROOT" >&2
+  exit 1
+fi
+TORCH_ENV=(env ANCHOR_REEXEC=1 LD_LIBRARY_PATH="$R$LIB/openblas-openmp" OPENBLAS_CORETYPE=SkylakeX
+           LD_PRELOAD="$R$LIB/libtcmalloc_minimal.so.4")
+TMP="$(mktemp -d)"
+trap 'rm -rf "$TMP"' EXIT
+
+# PyTorch: torch_ref.py's own fm_case step, timed per step with wall and process CPU clocks.
+cat > "$TMP/torch_fm.py" <<'PY'
+import importlib.util, sys, time
+path, threads, steps, configs = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4].split(",")
+sys.argv = [path]
+spec = importlib.util.spec_from_file_location("torch_ref", path)
+tr = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(tr)
+import torch
+torch.set_num_threads(threads)
+for c in configs:
+    size, bt = c.split(":")
+    b, tm = map(int, bt.split("x"))
+    torch.manual_seed(0)
+    model, step = tr.fm_case(size, b, tm)
+    flops = tr.count_step_flops(step)
+    step()
+    cpu, wall = [], []
+    for _ in range(steps):
+        c0, w0 = time.process_time(), time.perf_counter()
+        step()
+        cpu.append(time.process_time() - c0)
+        wall.append(time.perf_counter() - w0)
+    cpu.sort(); wall.sort()
+    print("torch", size, b, tm, threads, "%.2f" % (1e3 * wall[len(wall) // 2]), "%.2f" % (1e3 * cpu[len(cpu) // 2]),
+          "%.1f" % (flops / wall[len(wall) // 2] * 1e-9), flush=True)
+PY
+
+filter=""
+for c in ${CONFIGS//,/ }; do
+  s="${c%%:*}"; bt="${c#*:}"
+  filter="$filter|fm_$s/B:${bt%x*}/Tm:${bt#*x}/"
+done
+filter="${filter#|}"
+echo "# load average before: $(cut -d' ' -f1-3 /proc/loadavg)"
+for th in ${THREADS//,/ }; do
+  echo "# ours: OMP_NUM_THREADS=$th $BENCH --benchmark_filter='$filter' --benchmark_repetitions=$STEPS"
+  OMP_NUM_THREADS=$th "$BENCH" --benchmark_filter="$filter" --benchmark_min_time=0 \
+    --benchmark_repetitions="$STEPS" --benchmark_format=json > "$TMP/ours_$th.json" 2> /dev/null
+  echo "# torch: ${TORCH_ENV[*]} /usr/bin/python3 <torch_ref.fm_case step> threads $th"
+  "${TORCH_ENV[@]}" /usr/bin/python3 "$TMP/torch_fm.py" "$TORCH_REF" "$th" "$STEPS" "$CONFIGS" >> "$TMP/torch.txt"
+done
+echo "# load average after: $(cut -d' ' -f1-3 /proc/loadavg)"
+/usr/bin/python3 - "$TMP" "$THREADS" <<'PY'
+import json, statistics, sys
+tmp, threads = sys.argv[1], [int(t) for t in sys.argv[2].split(",")]
+torch = {}
+for line in open(f"{tmp}/torch.txt"):
+    _, size, b, tm, th, wall, cpu, gf = line.split()
+    torch[(size, int(b), int(tm), int(th))] = (float(wall), float(cpu), float(gf))
+print("%-22s %3s | %9s %9s %8s %6s | %9s %9s %8s | %10s %9s" % ("config", "thr", "ours ms", "ours cpu", "GFLOP/s",
+      "%peak", "torch ms", "torch cpu", "GFLOP/s", "ratio wall", "ratio cpu"))
+for th in threads:
+    runs = {}
+    for r in json.load(open(f"{tmp}/ours_{th}.json"))["benchmarks"]:
+        if r.get("run_type") != "iteration":
+            continue
+        name = r["name"]
+        size = "small" if "fm_small" in name else "paper"
+        b, tm = int(name.split("B:")[1].split("/")[0]), int(name.split("Tm:")[1].split("/")[0])
+        runs.setdefault((size, b, tm), []).append(r)
+    for (size, b, tm), rs in runs.items():
+        ms = statistics.median(r["ms"] for r in rs)
+        cpu = statistics.median(r["cpu_ms"] for r in rs)
+        gf = statistics.median(r["GFLOP/s"] for r in rs)
+        tw, tc, tg = torch.get((size, b, tm, th), (float("nan"),) * 3)
+        print("%-22s %3d | %9.1f %9.1f %8.1f %5.0f%% | %9.1f %9.1f %8.1f | %9.2fx %8.2fx" % (
+            f"fm-{size} B{b} Tm{tm}", th, ms, cpu, gf, 100 * gf / (220 * th), tw, tc, tg, tw / ms, tc / cpu))
+PY
