@@ -7,6 +7,7 @@
 // Counters: ms (wall clock per step), cpu_ms (process CPU time per step over all threads: less sensitive to other
 // processes holding a core), GFLOP/s (Linear + attention-matmul FLOPs counted as torch_ref counts them: 3 x the
 // forward FLOPs, so the rates compare directly), %peak (GFLOP/s against 220 GFLOP/s per thread).
+// Also BM_fm_attention: the attention core alone (fwd + bwd) at the generator's head shapes on each path.
 // Run: build-NAME/bench_train_fm --benchmark_min_time=2   (threads: OMP_NUM_THREADS, default 2 on this VM).
 #include <benchmark/benchmark.h>
 
@@ -14,6 +15,7 @@
 #include <ctime>
 
 #include "models/text2bfm/generator.h"
+#include "tensor/fused/attention.h"
 #include "nn/loss_flow.h"
 #include "nn/optim_adamw.h"
 #include "tensor/parallel.h"
@@ -85,7 +87,52 @@ void BM_train_fm(benchmark::State& st, const std::string& name) {
   st.counters["params_M"] = (double)model.num_parameters() * 1e-6;
 }
 
+// The attention core alone (forward + backward, all three input gradients) at the generator's head shapes, on the
+// path given: "small" (per-head loops) or "gemm" (gemm_batched). Args: B, H, Tq, Tk, d.
+void BM_fm_attention(benchmark::State& st, const char* path) {
+  fused::AttentionShape s;
+  s.B = st.range(0), s.H = st.range(1), s.Tq = st.range(2), s.Tk = st.range(3), s.d = st.range(4);
+  Generator gen(2);
+  const Tensor q = rand_normal({s.B, s.H, s.Tq, s.d}, gen), k = rand_normal({s.B, s.H, s.Tk, s.d}, gen);
+  const Tensor v = rand_normal({s.B, s.H, s.Tk, s.d}, gen), g = rand_normal({s.B, s.H, s.Tq, s.d}, gen);
+  Tensor out = Tensor::empty(q.shape()), att = Tensor::empty({s.B, s.H, s.Tq, s.Tk});
+  Tensor dq = Tensor::empty(q.shape()), dk = Tensor::empty(k.shape()), dv = Tensor::empty(v.shape());
+  fused::attention_force_path(path);
+  auto run = [&] {
+    fused::attention_forward<float>(out.data<float>(), att.data<float>(), q.data<float>(), k.data<float>(),
+                                    v.data<float>(), nullptr, s);
+    fused::attention_backward<float>(dq.data<float>(), dk.data<float>(), dv.data<float>(), g.data<float>(),
+                                     att.data<float>(), q.data<float>(), k.data<float>(), v.data<float>(), s);
+  };
+  run();
+  const double cpu0 = process_cpu_seconds();
+  const auto t0 = std::chrono::steady_clock::now();
+  for (auto _ : st) run();
+  const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double it = (double)st.iterations(), flops = 3.0 * fused::attention_forward_flops(s);
+  fused::attention_force_path("auto");
+  st.counters["ms"] = sec / it * 1e3;
+  st.counters["cpu_ms"] = (process_cpu_seconds() - cpu0) / it * 1e3;
+  st.counters["GFLOP/s"] = flops * it / sec * 1e-9;
+  st.counters["threads"] = get_num_threads();
+}
+
 }  // namespace
+
+BENCHMARK_CAPTURE(BM_fm_attention, small, "small")
+    ->ArgNames({"B", "H", "Tq", "Tk", "d"})
+    ->Args({256, 8, 16, 16, 64})
+    ->Args({256, 8, 8, 24, 64})
+    ->Args({256, 8, 24, 24, 96})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_fm_attention, gemm, "gemm")
+    ->ArgNames({"B", "H", "Tq", "Tk", "d"})
+    ->Args({256, 8, 16, 16, 64})
+    ->Args({256, 8, 8, 24, 64})
+    ->Args({256, 8, 24, 24, 96})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 BENCHMARK_CAPTURE(BM_train_fm, fm_small, std::string("fm-small"))
     ->ArgNames({"B", "Tm"})

@@ -25,4 +25,12 @@ template <typename T>
 void attention_small_backward(T* dq, T* dk, T* dv, const T* dout, const T* att, const T* q, const T* k, const T* v,
                               const AttentionShape& s);
 
+// The same loops compiled with AVX-512 (attention_small_avx512.cpp); call only where the CPU supports it.
+template <typename T>
+void attention_small_forward_avx512(T* out, T* att, const T* q, const T* k, const T* v, const T* key_mask,
+                                    const AttentionShape& s);
+template <typename T>
+void attention_small_backward_avx512(T* dq, T* dk, T* dv, const T* dout, const T* att, const T* q, const T* k,
+                                     const T* v, const AttentionShape& s);
+
 }  // namespace t2m::fused
