@@ -13,8 +13,10 @@
 // is the world rotation of joint j in the canonical Motion (sim/skeleton.h) and Wref_j = rest_world_rot(j).
 //
 // Physics: dt = 1/450 s, 15 substeps per 30 Hz control step, Euler integrator (joint damping is implicit there),
-// Newton solver. Contacts: only body–floor (every body geom has contype 1 / conaffinity 0, the floor 1 / 1), no
-// self collision; feet and toes are boxes with flat soles. Position actuators: ctrlrange = the hinge range,
+// Newton solver. Contacts: only body–floor, listed as explicit <pair>s with collision="predefined" (no broadphase;
+// the same contacts as geoms with contype 1 / conaffinity 0 against a 1 / 1 floor, which the geoms also carry),
+// no self collision (self_collision = true: dynamic contacts between all geoms instead); feet and toes are boxes
+// with flat soles. Position actuators: ctrlrange = the hinge range,
 // force = kp (ctrl - q), plus joint damping kd = kp / 10 (the D term); forcerange = ±kp * 1 rad.
 // Masses from geom volumes at density 1000 kg/m^3 (58.6 kg in total, see model_total_mass()).
 #pragma once

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 #include <mujoco/mujoco.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -118,4 +119,47 @@ TEST(SimHumanoid, FileRoundTrip) {
   EXPECT_TRUE(h->is_humanoid());
   EXPECT_EQ(h->model()->nu, kHumanoidHinges);
   std::remove(path.c_str());
+}
+
+TEST(SimHumanoid, FloorPairsGiveTheSameContactsAsDynamicCollision) {
+  // Our model lists the body-floor contacts as explicit pairs (collision="predefined", no broadphase). The same
+  // model with dynamic (contype/conaffinity) collision instead must produce the same contacts and motion while the
+  // humanoid stands, tips over and lands on the floor (2 s from a tilted standing pose, PD holding qpos0).
+  const std::string xml = humanoid_mjcf();
+  std::string dyn = xml;
+  const std::string opt = " collision=\"predefined\"";
+  ASSERT_NE(dyn.find(opt), std::string::npos);
+  dyn.erase(dyn.find(opt), opt.size());
+  const size_t c0 = dyn.find("  <contact>"), c1 = dyn.find("</contact>\n");
+  ASSERT_NE(c0, std::string::npos);
+  ASSERT_NE(c1, std::string::npos);
+  dyn.erase(c0, c1 + 11 - c0);
+  auto hp = Humanoid::from_xml(xml), hd = Humanoid::from_xml(dyn);
+  const mjModel *mp = hp->model(), *md = hd->model();
+  ASSERT_EQ(mp->npair, mp->ngeom - 1);  // every body geom against the floor
+  ASSERT_EQ(md->npair, 0);
+  mjData *dp = mj_makeData(mp), *dd = mj_makeData(md);
+  for (mjData* d : {dp, dd}) {
+    d->qpos[2] += 0.02;
+    d->qpos[4] = 0.05;  // small tilt about x (quaternion x component; MuJoCo normalises it)
+  }
+  int max_con = 0, body_con = 0;
+  double max_diff = 0;
+  for (int s = 0; s < 900; ++s) {
+    mj_step(mp, dp);
+    mj_step(md, dd);
+    ASSERT_EQ(dp->ncon, dd->ncon) << "step " << s;
+    max_con = std::max(max_con, dp->ncon);
+    for (int c = 0; c < dp->ncon; ++c) {
+      const std::string name = mj_id2name(mp, mjOBJ_GEOM, dp->contact[c].geom2);
+      if (name.find("Foot") == std::string::npos && name.find("Toes") == std::string::npos) ++body_con;
+    }
+    for (int i = 0; i < mp->nq; ++i) max_diff = std::max(max_diff, std::abs(dp->qpos[i] - dd->qpos[i]));
+  }
+  std::printf("max |qpos diff| %.3g, max contacts %d, non-foot contacts %d\n", max_diff, max_con, body_con);
+  EXPECT_LT(max_diff, 1e-6);
+  EXPECT_GE(max_con, 8);    // both feet flat on the floor at some point
+  EXPECT_GT(body_con, 0);   // and it fell: contacts of non-foot bodies were compared too
+  mj_deleteData(dp);
+  mj_deleteData(dd);
 }
