@@ -121,6 +121,45 @@ TEST(Conv1d, NoBiasAndSkippedGradients) {
   expect_close(dw, two, 1e-12, 1e-12, "dweight accumulates");
 }
 
+// Shapes whose column matrix exceeds the kernel's 4 MB chunk: the batch is processed in chunks of samples (here
+// 2, 2, 1 and 1, 1, 1 samples); values and all three gradients against direct double loops.
+TEST(Conv1d, BatchChunksMatchDirectConvolution) {
+  for (const Conv1dShape& s : {shape(5, 128, 2, 2000, 2, 1, 1, 0, true), shape(3, 64, 2, 8200, 4, 2, 1, 0, true)}) {
+    const int64_t To = s.out_len(), padL = (s.K - 1) * s.dilation + 0;
+    Vec x = randn(s.B * s.Cin * s.T, 71), w = randn(s.Cout * s.Cin * s.K, 72), b = randn(s.Cout, 73);
+    const Vec R = randn(s.B * s.Cout * To, 74);
+    // The kernel's causal padding is (K-1)*dilation (stride > 1 included); the reference follows that rule.
+    Vec y(s.B * s.Cout * To), dx(x.size()), dw(w.size(), 0.0), db(b.size(), 0.0);
+    conv1d_forward<double>(y.data(), x.data(), w.data(), b.data(), s);
+    conv1d_backward<double>(dx.data(), dw.data(), db.data(), R.data(), x.data(), w.data(), s);
+    expect_close(y, ref_conv1d(x, w, &b, s), 1e-12, 1e-10, "chunked y");
+    Vec rdx(x.size(), 0.0), rdw(w.size(), 0.0), rdb(b.size(), 0.0);
+    for (int64_t bb = 0; bb < s.B; ++bb)
+      for (int64_t co = 0; co < s.Cout; ++co)
+        for (int64_t to = 0; to < To; ++to) {
+          const double g = R[(bb * s.Cout + co) * To + to];
+          rdb[co] += g;
+          for (int64_t ci = 0; ci < s.Cin; ++ci)
+            for (int64_t k = 0; k < s.K; ++k) {
+              int64_t t = to * s.stride + k * s.dilation - padL;
+              t = t < 0 ? 0 : t;  // replicate frame 0
+              rdw[(co * s.Cin + ci) * s.K + k] += g * x[(bb * s.Cin + ci) * s.T + t];
+              rdx[(bb * s.Cin + ci) * s.T + t] += g * w[(co * s.Cin + ci) * s.K + k];
+            }
+        }
+    expect_close(dx, rdx, 1e-12, 1e-10, "chunked dinp");
+    expect_close(dw, rdw, 1e-12, 1e-10, "chunked dweight");
+    expect_close(db, rdb, 1e-12, 1e-10, "chunked dbias");
+    auto xf = to_float(x), wf = to_float(w), bf = to_float(b), Rf = to_float(R);
+    std::vector<float> yf(y.size()), dxf(x.size()), dwf(w.size(), 0.0f), dbf(b.size(), 0.0f);
+    conv1d_forward<float>(yf.data(), xf.data(), wf.data(), bf.data(), s);
+    conv1d_backward<float>(dxf.data(), dwf.data(), dbf.data(), Rf.data(), xf.data(), wf.data(), s);
+    expect_float_matches(yf, y, 1e-5, "chunked float y");
+    expect_float_matches(dxf, dx, 1e-5, "chunked float dinp");
+    expect_float_matches(dwf, dw, 1e-5, "chunked float dweight");
+  }
+}
+
 TEST(Conv1d, OutputLengthFormula) {
   EXPECT_EQ(shape(1, 1, 1, 64, 3, 1, 1, 0, true).out_len(), 64);   // causal keeps the length
   EXPECT_EQ(shape(1, 1, 1, 64, 4, 2, 1, 0, true).out_len(), 32);   // floor((64+3-3-1)/2)+1

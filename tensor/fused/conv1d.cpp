@@ -1,7 +1,8 @@
-// conv1d.cpp — im2col into col (Cin*K, B*To) with column index b*To + to, then
-//   forward:  tmp (Cout, B*To) = W (Cout, Cin*K) @ col;        out[b, co, to] = tmp[co, b*To + to] + bias[co]
-//   backward: dtmp (Cout, B*To) = dout transposed to that layout; dbias[co] += row sums of dtmp
-//             dW (Cout, Cin*K) += dtmp @ col^T;  dcol (Cin*K, B*To) = W^T @ dtmp;  dinp = col2im(dcol)
+// conv1d.cpp — per chunk of samples (chunk_samples: the chunk's column matrix stays in cache), im2col into
+// col (Cin*K, nb*To) with column index b*To + to, then
+//   forward:  tmp (Cout, nb*To) = W (Cout, Cin*K) @ col;       out[b, co, to] = tmp[co, b*To + to] + bias[co]
+//   backward: dtmp (Cout, nb*To) = dout transposed to that layout; dbias[co] += row sums of dtmp
+//             dW (Cout, Cin*K) += dtmp @ col^T;  dcol (Cin*K, nb*To) = W^T @ dtmp;  dinp = col2im(dcol)
 #include "tensor/fused/conv1d.h"
 
 #include <string>
@@ -48,20 +49,31 @@ std::pair<int64_t, int64_t> valid_outputs(int64_t off, const Conv1dShape& s, int
   return {lo, hi};
 }
 
-// col[(ci*K + k), b*To + to] = x_padded[b, ci, to*stride + k*dilation - padL].
+// Samples per chunk: the column matrix of one chunk (Cin*K x nb*To floats) stays within kColChunkElems so that
+// im2col's output is still in cache (L3) when the GEMM packs it, and col2im reads dcol from cache; at least one
+// sample. Depends on the shape only, so the summation order (and the result bits) is fixed per thread count.
+constexpr int64_t kColChunkElems = int64_t{1} << 20;  // 4 MB of float
+
+int64_t chunk_samples(const Conv1dShape& s, int64_t To) {
+  const int64_t per = s.Cin * s.K * To;
+  const int64_t nb = kColChunkElems / (per > 0 ? per : 1);
+  return nb < 1 ? 1 : (nb > s.B ? s.B : nb);
+}
+
+// Samples [b0, b0 + nb): col[(ci*K + k), (b-b0)*To + to] = x_padded[b, ci, to*stride + k*dilation - padL].
 template <typename T>
-void im2col(T* col, const T* inp, const Conv1dShape& s, int64_t To) {
-  const int64_t BTo = s.B * To, padL = s.pad_left();
-  const int nt = fused_threads(s.Cin * s.K * BTo);
+void im2col(T* col, const T* inp, const Conv1dShape& s, int64_t To, int64_t b0, int64_t nb) {
+  const int64_t N = nb * To, padL = s.pad_left();
+  const int nt = fused_threads(s.Cin * s.K * N);
 #pragma omp parallel for collapse(2) num_threads(nt) schedule(static) if (nt > 1)
   for (int64_t ci = 0; ci < s.Cin; ++ci)
     for (int64_t k = 0; k < s.K; ++k) {
-      T* row = col + (ci * s.K + k) * BTo;
-      for (int64_t b = 0; b < s.B; ++b) {
-        const T* x = inp + (b * s.Cin + ci) * s.T;
+      T* row = col + (ci * s.K + k) * N;
+      const int64_t off = k * s.dilation - padL;
+      const auto [lo, hi] = valid_outputs(off, s, To);
+      for (int64_t b = 0; b < nb; ++b) {
+        const T* x = inp + ((b0 + b) * s.Cin + ci) * s.T;
         T* dst = row + b * To;
-        const int64_t off = k * s.dilation - padL;
-        const auto [lo, hi] = valid_outputs(off, s, To);
         const T left = s.causal ? x[0] : (T)0;
         for (int64_t to = 0; to < lo; ++to) dst[to] = left;
         if (s.stride == 1) {
@@ -74,20 +86,20 @@ void im2col(T* col, const T* inp, const Conv1dShape& s, int64_t To) {
     }
 }
 
-// dinp[b, ci, t] = sum of dcol entries that im2col read from (b, ci, t); the causal left pad adds into t = 0.
-// ci outer, b inner: the K rows of dcol that input channel ci reads are walked front to back (sequential streams)
-// and only the dinp rows jump.
+// Samples [b0, b0 + nb): dinp[b, ci, t] = sum of dcol entries that im2col read from (b, ci, t); the causal left
+// pad adds into t = 0. ci outer, b inner: the K rows of dcol that input channel ci reads are walked front to back
+// (sequential streams) and only the dinp rows jump.
 template <typename T>
-void col2im(T* dinp, const T* dcol, const Conv1dShape& s, int64_t To) {
-  const int64_t BTo = s.B * To, padL = s.pad_left();
-  const int nt = fused_threads(s.Cin * s.K * BTo);
+void col2im(T* dinp, const T* dcol, const Conv1dShape& s, int64_t To, int64_t b0, int64_t nb) {
+  const int64_t N = nb * To, padL = s.pad_left();
+  const int nt = fused_threads(s.Cin * s.K * N);
 #pragma omp parallel for collapse(2) num_threads(nt) schedule(static) if (nt > 1)
   for (int64_t ci = 0; ci < s.Cin; ++ci)
-    for (int64_t b = 0; b < s.B; ++b) {
-      T* dx = dinp + (b * s.Cin + ci) * s.T;
+    for (int64_t b = 0; b < nb; ++b) {
+      T* dx = dinp + ((b0 + b) * s.Cin + ci) * s.T;
       for (int64_t t = 0; t < s.T; ++t) dx[t] = 0;
       for (int64_t k = 0; k < s.K; ++k) {
-        const T* src = dcol + (ci * s.K + k) * BTo + b * To;
+        const T* src = dcol + (ci * s.K + k) * N + b * To;
         const int64_t off = k * s.dilation - padL;
         const auto [lo, hi] = valid_outputs(off, s, To);
         if (s.causal)
@@ -111,20 +123,23 @@ void conv1d_forward(T* out, const T* inp, const T* weight, const T* bias, const 
   check_ptr(op, "out", out);
   check_ptr(op, "inp", inp);
   check_ptr(op, "weight", weight);
-  const int64_t CK = s.Cin * s.K, BTo = s.B * To;
-  T* col = fused_scratch<T>(0, CK * BTo);
-  T* tmp = fused_scratch<T>(1, s.Cout * BTo);
-  im2col(col, inp, s, To);
-  gemm(false, false, s.Cout, BTo, CK, (T)1, weight, CK, col, BTo, (T)0, tmp, BTo);
-  const int nt = fused_threads(s.Cout * BTo);
+  const int64_t CK = s.Cin * s.K, NB = chunk_samples(s, To);
+  T* col = fused_scratch<T>(0, CK * NB * To);
+  T* tmp = fused_scratch<T>(1, s.Cout * NB * To);
+  for (int64_t b0 = 0; b0 < s.B; b0 += NB) {
+    const int64_t nb = s.B - b0 < NB ? s.B - b0 : NB, N = nb * To;
+    im2col(col, inp, s, To, b0, nb);
+    gemm(false, false, s.Cout, N, CK, (T)1, weight, CK, col, N, (T)0, tmp, N);
+    const int nt = fused_threads(s.Cout * N);
 #pragma omp parallel for collapse(2) num_threads(nt) schedule(static) if (nt > 1)
-  for (int64_t b = 0; b < s.B; ++b)
-    for (int64_t co = 0; co < s.Cout; ++co) {
-      const T* src = tmp + co * BTo + b * To;
-      T* dst = out + (b * s.Cout + co) * To;
-      const T bv = bias ? bias[co] : (T)0;
-      for (int64_t to = 0; to < To; ++to) dst[to] = src[to] + bv;
-    }
+    for (int64_t b = 0; b < nb; ++b)
+      for (int64_t co = 0; co < s.Cout; ++co) {
+        const T* src = tmp + co * N + b * To;
+        T* dst = out + ((b0 + b) * s.Cout + co) * To;
+        const T bv = bias ? bias[co] : (T)0;
+        for (int64_t to = 0; to < To; ++to) dst[to] = src[to] + bv;
+      }
+  }
 }
 
 template <typename T>
@@ -136,31 +151,34 @@ void conv1d_backward(T* dinp, T* dweight, T* dbias, const T* dout, const T* inp,
   check_ptr(op, "dout", dout);
   if (dweight) check_ptr(op, "inp", inp);
   if (dinp) check_ptr(op, "weight", weight);
-  const int64_t CK = s.Cin * s.K, BTo = s.B * To;
-  T* col = fused_scratch<T>(0, CK * BTo);
-  T* dtmp = fused_scratch<T>(1, s.Cout * BTo);
-  const int nt = fused_threads(s.Cout * BTo);
+  const int64_t CK = s.Cin * s.K, NB = chunk_samples(s, To);
+  T* col = fused_scratch<T>(0, CK * NB * To);
+  T* dtmp = fused_scratch<T>(1, s.Cout * NB * To);
+  for (int64_t b0 = 0; b0 < s.B; b0 += NB) {
+    const int64_t nb = s.B - b0 < NB ? s.B - b0 : NB, N = nb * To;
+    const int nt = fused_threads(s.Cout * N);
 #pragma omp parallel for num_threads(nt) schedule(static) if (nt > 1)
-  for (int64_t co = 0; co < s.Cout; ++co) {
-    T* dst = dtmp + co * BTo;
-    T sum = 0;
-    for (int64_t b = 0; b < s.B; ++b) {
-      const T* src = dout + (b * s.Cout + co) * To;
-      for (int64_t to = 0; to < To; ++to) {
-        dst[b * To + to] = src[to];
-        sum += src[to];
+    for (int64_t co = 0; co < s.Cout; ++co) {
+      T* dst = dtmp + co * N;
+      T sum = 0;
+      for (int64_t b = 0; b < nb; ++b) {
+        const T* src = dout + ((b0 + b) * s.Cout + co) * To;
+        for (int64_t to = 0; to < To; ++to) {
+          dst[b * To + to] = src[to];
+          sum += src[to];
+        }
       }
+      if (dbias) dbias[co] += sum;
     }
-    if (dbias) dbias[co] += sum;
-  }
-  if (dweight) {
-    im2col(col, inp, s, To);
-    gemm(false, true, s.Cout, CK, BTo, (T)1, dtmp, BTo, col, BTo, (T)1, dweight, CK);
-  }
-  if (dinp) {
-    T* dcol = col;  // col is no longer needed
-    gemm(true, false, CK, BTo, s.Cout, (T)1, weight, CK, dtmp, BTo, (T)0, dcol, BTo);
-    col2im(dinp, dcol, s, To);
+    if (dweight) {
+      im2col(col, inp, s, To, b0, nb);
+      gemm(false, true, s.Cout, CK, N, (T)1, dtmp, N, col, N, (T)1, dweight, CK);
+    }
+    if (dinp) {
+      T* dcol = col;  // col is no longer needed
+      gemm(true, false, CK, N, s.Cout, (T)1, weight, CK, dtmp, N, (T)0, dcol, N);
+      col2im(dinp, dcol, s, To, b0, nb);
+    }
   }
 }
 

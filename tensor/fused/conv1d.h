@@ -5,8 +5,9 @@
 // Padding: causal == true pads (K-1)*dilation frames on the left by REPLICATING frame 0 (padL = (K-1)*dilation,
 // padR = 0, `pad` must be 0); otherwise `pad` zero frames on both sides (padL = padR = pad).
 // Backward writes dinp (=) and accumulates dweight/dbias (+=); the replicate padding's gradient flows into frame 0.
-// All three GEMMs work on the whole batch at once: the column matrix is (Cin*K, B*To).
-// Scratch (thread-local, scratch.h): slot 0 col (Cin*K * B*To), slot 1 (Cout * B*To) elements; the K=1,
+// The GEMMs work on chunks of nb samples at once (the column matrix is (Cin*K, nb*To), nb as large as keeps it
+// within 4 MB of float, at least 1, the whole batch for small shapes); dweight/dbias accumulate chunk by chunk.
+// Scratch (thread-local, scratch.h): slot 0 col (Cin*K * nb*To), slot 1 (Cout * nb*To) elements; the K=1,
 // stride=1, pad=0 case still uses both (the column matrix is then a copy of the input in (Cin, B*T) layout).
 // Deterministic for a fixed thread count (every reduction has a fixed order).
 // Errors: t2m::Error for sizes < 1 (B may be 0), stride/dilation < 1, pad < 0, causal with pad != 0, To < 1,
