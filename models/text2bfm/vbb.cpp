@@ -3,7 +3,6 @@
 
 #include <string>
 
-#include "autograd/ops_conv.h"
 #include "autograd/ops_elementwise.h"
 #include "autograd/ops_shape.h"
 #include "autograd/ops_unary.h"
@@ -87,6 +86,7 @@ VbbDecoder::VbbDecoder(const VbbConfig& cfg, Generator& gen) {
   in_ = register_module("0", causal_conv(cfg.latent, cfg.width, 3, 1, gen));
   for (int64_t l = 0; l < L; ++l) {
     res_.push_back(register_module(std::to_string(2 + 3 * l), std::make_shared<ResStack>(cfg, true, gen)));
+    up_.push_back(register_module(std::to_string(3 + 3 * l), std::make_shared<nn::Upsample1d>(2)));
     up_conv_.push_back(register_module(std::to_string(4 + 3 * l), causal_conv(cfg.width, cfg.width, 3, 1, gen)));
   }
   post_ = register_module(std::to_string(2 + 3 * L), causal_conv(cfg.width, cfg.width, 3, 1, gen));
@@ -97,7 +97,7 @@ VbbDecoder::VbbDecoder(const VbbConfig& cfg, Generator& gen) {
 ag::Variable VbbDecoder::forward(const ag::Variable& m, Generator& gen) const {
   ag::Variable h = ag::relu(in_->forward(m));
   for (size_t l = 0; l < res_.size(); ++l)
-    h = up_conv_[l]->forward(ag::upsample_nearest1d(res_[l]->forward(h, gen), 2));
+    h = up_conv_[l]->forward(up_[l]->forward(res_[l]->forward(h, gen)));
   return out_->forward(ag::relu(post_->forward(h)));
 }
 

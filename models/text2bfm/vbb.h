@@ -40,6 +40,7 @@
 #include "nn/conv1d.h"
 #include "nn/module.h"
 #include "nn/res_conv_block.h"
+#include "nn/upsample.h"
 #include "tensor/rng.h"
 
 namespace t2m::text2bfm {
@@ -91,6 +92,7 @@ class VbbDecoder : public nn::Module {
  private:
   std::shared_ptr<nn::Conv1d> in_, post_, out_;
   std::vector<std::shared_ptr<ResStack>> res_;
+  std::vector<std::shared_ptr<nn::Upsample1d>> up_;
   std::vector<std::shared_ptr<nn::Conv1d>> up_conv_;
 };
 
