@@ -31,6 +31,7 @@ EvalReport evaluate_motions(const text::RetrievalBundle& evaluator, const Motion
                     std::to_string(g.size()) + " and " + std::to_string(S));
       flat.insert(flat.end(), g.begin(), g.end());
     }
+    if (proto.mm_pairs > (int64_t)S) proto.mm_pairs = (int64_t)S;  // distinct first indices per prompt
     const Tensor m = embed_motions(evaluator, flat);
     e.mm_motion = m.reshape({(int64_t)set.groups.size(), (int64_t)S, m.size(1)});
   }

@@ -9,7 +9,8 @@
 // (embed_motions of the real test clips) or undefined (no FID). Motions are embedded once; every one of the
 // protocol's runs re-draws the R-precision batches, the shuffled control, the Diversity and MultiModality pairs.
 // Diversity draws pairs with distinct first indices, so it uses min(diversity_pairs, N) pairs (the test split has
-// 274 clips: 274 pairs instead of 300); the report's protocol.diversity_pairs says how many.
+// 274 clips: 274 pairs instead of 300), and MultiModality min(mm_pairs, S) pairs per prompt; the report's protocol
+// says how many.
 // Errors (t2m::Error "evaluate_motions: ..."): fewer main motions than one R-precision batch (names both numbers),
 // groups of unequal size, plus those of the evaluator and the metrics.
 #pragma once
