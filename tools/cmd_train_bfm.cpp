@@ -110,11 +110,14 @@ void run_train_bfm(const TrainBfmArgs& a, CLI::App* app) {
   }
   {
     t0 = clock::now();
-    t2m::nn::ProgressOptions po;
-    t2m::nn::Progress bar(cfg.seed_transitions, "seed data", po);
+    std::unique_ptr<t2m::nn::Progress> bar;  // only when the seed buffer is collected (not loaded)
     bool collected = false;
-    tr.prepare_seed([&](int64_t done, int64_t) { collected = true; bar.update(done); });
-    bar.finish();
+    tr.prepare_seed([&](int64_t done, int64_t total) {
+      if (!bar) bar = std::make_unique<t2m::nn::Progress>(total, "seed data");
+      collected = true;
+      bar->update(done);
+    });
+    if (bar) bar->finish();
     const double s = std::chrono::duration<double>(clock::now() - t0).count();
     if (collected)
       std::fprintf(stderr, "train bfm: %lld seed transitions (noisy PD) in %.1f s = %.0f transitions/s\n",
