@@ -3,14 +3,21 @@
 //
 // Workload: VecEnv with 8 envs; each env holds the reference pose with small sinusoidal PD targets (actions), and
 // is reset to the standing pose every 60 control steps (2 s), so the timing mixes standing, stepping and fallen
-// states, like PD tracking does. items_per_second = control steps per second over all envs.
-// Counter cpu_us_per_step: process CPU time per control step (all threads).
-// Args: {threads, variant}; variant 0 = ours (Euler, Newton 8 iterations, body-floor contacts only),
+// states, like PD tracking does (the targets depend on the step within that cycle, so every cycle is the same). items_per_second = control steps per second over all envs.
+// Counters: cpu_us_per_step = process CPU time per control step (all threads); idle_cores_steps_per_s =
+// threads * 1e6 / cpu_us_per_step, the rate `threads` otherwise idle cores would give (an estimate from CPU time,
+// not a wall-clock measurement); load1 = the 1-minute load average at the end of the run (other processes).
+// BM_EnvStepUndisturbed: the same workload on one thread, Env by Env; the workload repeats exactly every 60 steps
+// (the actions depend on the step within the cycle, the physics is deterministic), so the smallest thread CPU
+// time of each (cycle step, env) over 10 cycles is that step's cost when no other process interrupted it or
+// evicted its caches in between: undisturbed_us_per_step = their mean, undisturbed_steps_per_s = 1e6 / that.
+// Args: {threads, variant}; variant 0 = ours (Euler, Newton 8 iterations, body-floor contacts as predefined pairs),
 // 1 = implicit integrator, 2 = + self collision, 3 = 100 solver iterations (MuJoCo's default).
 #include <benchmark/benchmark.h>
-
+#include <stdlib.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <ctime>
 #include <vector>
@@ -42,23 +49,70 @@ static void BM_HumanoidControlStep(benchmark::State& state) {
   for (int k = 0; k < A; ++k) hold[k] = (float)venv.env(0).ctrl_to_action(k, 0.0);
   t2m::set_num_threads(threads);
   long steps = 0, t = 0;
+  constexpr int kCycle = 60;  // reset period (2 s)
   for (int i = 0; i < N; ++i) venv.env(i).reset(nullptr, nullptr, nullptr);
   const double cpu0 = process_cpu_s();
   for (auto _ : state) {
-    if (t % 60 == 0)
+    const int c = (int)(t % kCycle);
+    if (c == 0)
       for (int i = 0; i < N; ++i) venv.env(i).reset(nullptr, nullptr, nullptr);
     for (int i = 0; i < N; ++i)
-      for (int k = 0; k < A; ++k) act[(size_t)i * A + k] = hold[k] + 0.05f * std::sin(0.2f * t + k + i);
+      for (int k = 0; k < A; ++k) act[(size_t)i * A + k] = hold[k] + 0.05f * std::sin(0.2f * c + k + i);
     venv.step(act.data(), obs.data());
     steps += N;
     ++t;
   }
   state.SetItemsProcessed(steps);
+
   // CPU seconds of all threads per control step: the cost that scales with cores on an idle machine
   // (wall-clock items_per_second is what a loaded, shared machine gives).
   state.counters["cpu_us_per_step"] = 1e6 * (process_cpu_s() - cpu0) / std::max(1L, steps);
+  state.counters["idle_cores_steps_per_s"] = threads * 1e6 / std::max(1e-9, state.counters["cpu_us_per_step"].value);
+  double load[1] = {0};
+  if (getloadavg(load, 1) == 1) state.counters["load1"] = load[0];
   state.counters["contacts"] = venv.env(0).data()->ncon;
 }
+static double thread_cpu_s() {
+  timespec ts;
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return ts.tv_sec + 1e-9 * ts.tv_nsec;
+}
+
+static void BM_EnvStepUndisturbed(benchmark::State& state) {
+  auto h = Humanoid::create();
+  const int N = 8, kCycle = 60, kCycles = 10;
+  VecEnv venv(h, N);
+  const int A = venv.action_dim(), D = venv.obs_dim();
+  std::vector<float> act(A), obs(D), hold(A);
+  for (int k = 0; k < A; ++k) hold[k] = (float)venv.env(0).ctrl_to_action(k, 0.0);
+  std::vector<double> best((size_t)kCycle * N);
+  long steps = 0;
+  for (auto _ : state) {
+    std::fill(best.begin(), best.end(), 1e30);
+    for (int t = 0; t < kCycle * kCycles; ++t) {
+      const int c = t % kCycle;
+      for (int i = 0; i < N; ++i) {
+        Env& e = venv.env(i);
+        if (c == 0) e.reset(nullptr, nullptr, nullptr);
+        for (int k = 0; k < A; ++k) act[k] = hold[k] + 0.05f * std::sin(0.2f * c + k + i);
+        const double t0 = thread_cpu_s();
+        e.step(act.data(), obs.data());
+        best[(size_t)c * N + i] = std::min(best[(size_t)c * N + i], thread_cpu_s() - t0);
+        ++steps;
+      }
+    }
+  }
+  double sum = 0;
+  for (double b : best) sum += b;
+  const double us = 1e6 * sum / best.size();
+  state.SetItemsProcessed(steps);
+  state.counters["undisturbed_us_per_step"] = us;
+  state.counters["undisturbed_steps_per_s"] = 1e6 / us;
+  double load[1] = {0};
+  if (getloadavg(load, 1) == 1) state.counters["load1"] = load[0];
+}
+BENCHMARK(BM_EnvStepUndisturbed)->Iterations(1)->UseRealTime()->Unit(benchmark::kMillisecond);
+
 BENCHMARK(BM_HumanoidControlStep)
     ->ArgNames({"threads", "variant"})
     ->Args({1, 0})
