@@ -28,6 +28,7 @@ constexpr uint64_t kRealCaptionSeed = 7;  // captions of real clips: make_captio
 struct EvalArgs {
   t2m::cli::TextDataOptions data;
   std::string dir, evaluator = "models/checkpoints/evaluator.t2mckpt", reference = "real", split = "test", out;
+  std::string reference_split;  // "" = split
   bool real = false;
   t2m::eval::EvalProtocol protocol;
 };
@@ -46,11 +47,17 @@ void run_eval(const EvalArgs& a) {
   t2m::eval::MotionDir md;
   std::vector<t2m::data::MotionClip> real_clips;
   t2m::cli::TextData td;
-  const bool need_real = a.real || a.reference == "real";
-  if (need_real) {
+  const std::string ref_split_name = a.reference_split.empty() ? a.split : a.reference_split;
+  const t2m::data::Split ref_split = t2m::data::split_from_name(ref_split_name);
+  std::vector<t2m::data::MotionClip> ref_clips;
+  if (a.real || a.reference == "real") {
     td = t2m::cli::load_text_data(a.data);
-    real_clips = t2m::cli::split_clips(td, split, a.data.threads);
-    if (real_clips.empty()) throw Error("eval motions: the " + a.split + " split has no clips");
+    if (a.real) real_clips = t2m::cli::split_clips(td, split, a.data.threads);
+    if (a.real && real_clips.empty()) throw Error("eval motions: the " + a.split + " split has no clips");
+    if (a.reference == "real") {
+      ref_clips = ref_split == split && a.real ? real_clips : t2m::cli::split_clips(td, ref_split, a.data.threads);
+      if (ref_clips.empty()) throw Error("eval motions: the " + ref_split_name + " split has no clips");
+    }
   }
   t2m::eval::MotionSet set;
   std::string what;
@@ -79,9 +86,9 @@ void run_eval(const EvalArgs& a) {
   t2m::eval::MotionDir ref_dir;
   if (a.reference == "real") {
     std::vector<const std::vector<float>*> r;
-    for (const auto& c : real_clips) r.push_back(&c.features);
+    for (const auto& c : ref_clips) r.push_back(&c.features);
     reference = t2m::text::embed_motions(ev, r);
-    ref_what = "real motions of the " + a.split + " split";
+    ref_what = "real motions of the " + ref_split_name + " split";
   } else if (a.reference != "none") {
     ref_dir = t2m::eval::load_motion_dir(a.reference);
     std::vector<const std::vector<float>*> r;
@@ -122,6 +129,7 @@ void add_eval_motions(CLI::App& app) {
   c->add_option("--split", a->split, "split of the real motions (--real, --reference real)")->capture_default_str();
   c->add_option("--evaluator", a->evaluator, "metric evaluator checkpoint")->capture_default_str();
   c->add_option("--reference", a->reference, "FID reference: real | none | a motions directory")->capture_default_str();
+  c->add_option("--reference-split", a->reference_split, "split of the FID reference (default: --split)");
   c->add_option("--runs", a->protocol.runs, "seeded repetitions (mean and 95% CI)")->capture_default_str();
   c->add_option("--seed", a->protocol.seed, "seed of the runs")->capture_default_str();
   c->add_option("--diversity-pairs", a->protocol.diversity_pairs, "pairs for Diversity")->capture_default_str();

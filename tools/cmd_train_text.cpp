@@ -118,6 +118,24 @@ void run_train(const TrainArgs& a, const std::string& kind,
   std::printf("  log %s, plot %s, summary %s/summary.json\n", p.log.c_str(), p.svg.c_str(), out.c_str());
 }
 
+// "steps=800\nthreads=1\n" (CLI11 config form) -> " --steps 800 --threads 1".
+std::string as_flags(const std::string& config) {
+  std::string out, line;
+  for (char ch : config + "\n") {
+    if (ch != '\n') {
+      line += ch;
+      continue;
+    }
+    const size_t eq = line.find('=');
+    if (!line.empty()) {
+      out.append(" --").append(line.substr(0, eq));
+      if (eq != std::string::npos) out.append(" ").append(line.substr(eq + 1));
+    }
+    line.clear();
+  }
+  return out;
+}
+
 void add_train_text(CLI::App& app) {
   auto* g = t2m::cli::command_group(app, "train", "train a model");
   {
@@ -144,7 +162,7 @@ void add_train_text(CLI::App& app) {
         t2m::text::TextMotionConfig cfg = a->tm;
         cfg.text.vocab = vocab;
         return std::make_shared<t2m::text::TextMotionModel>(cfg, gen);
-      }, "t2m train text " + c->config_to_str(false, false));
+      }, "t2m train text" + as_flags(c->config_to_str(false, false)));
     });
   }
   {
@@ -165,7 +183,7 @@ void add_train_text(CLI::App& app) {
         t2m::eval::EvaluatorConfig cfg = a->ev;
         cfg.vocab = vocab;
         return std::make_shared<t2m::eval::Evaluator>(cfg, gen);
-      }, "t2m train evaluator " + c->config_to_str(false, false));
+      }, "t2m train evaluator" + as_flags(c->config_to_str(false, false)));
     });
   }
 }
