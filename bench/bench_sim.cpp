@@ -17,8 +17,8 @@
 #include <stdlib.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <ctime>
 #include <vector>
 
@@ -80,7 +80,9 @@ static double thread_cpu_s() {
 
 static void BM_EnvStepUndisturbed(benchmark::State& state) {
   auto h = Humanoid::create();
-  const int N = 8, kCycle = 60, kCycles = 10;
+  // T2M_SIM_BENCH_CYCLES=1 makes it short enough for valgrind --tool=callgrind (instructions per step, docs/SIM.md).
+  const char* cycles_env = std::getenv("T2M_SIM_BENCH_CYCLES");
+  const int N = 8, kCycle = 60, kCycles = cycles_env ? std::max(1, std::atoi(cycles_env)) : 10;
   VecEnv venv(h, N);
   const int A = venv.action_dim(), D = venv.obs_dim();
   std::vector<float> act(A), obs(D), hold(A);
