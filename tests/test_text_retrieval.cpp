@@ -228,3 +228,27 @@ TEST(RetrievalTrain, BadConfig) {
   b.window = 100;
   expect_error([&] { text::train_retrieval(b, cs, {}, cfg, p, false, "x"); }, {"train_retrieval", "window"});
 }
+
+// The shipped checkpoints (models/checkpoints/, docs/TEXT.md) load, have the documented shapes, and rank a
+// caption's own paraphrase above captions of other labels.
+TEST(ShippedCheckpoints, LoadAndSeparateCaptions) {
+  const fs::path dir = fs::path(T2M_SOURCE_DIR) / "models" / "checkpoints";
+  if (!fs::exists(dir / "text_encoder.t2mckpt") || !fs::exists(dir / "evaluator.t2mckpt"))
+    GTEST_SKIP() << "shipped checkpoints not present";
+  const auto te = text::load_text_motion_model((dir / "text_encoder.t2mckpt").string());
+  const auto ev = eval::load_evaluator((dir / "evaluator.t2mckpt").string());
+  const auto& tm = dynamic_cast<const text::TextMotionModel&>(*te.model);
+  EXPECT_EQ(tm.config().text.dim, 256);
+  EXPECT_EQ(te.stats.dim(), data::kFeatureDim);
+  EXPECT_EQ(ev.window, 128);
+  EXPECT_GT(te.tokenizer.vocab_size(), 100);
+  const auto enc = te.tokenizer.encode_batch({"a person walks forward"}, tm.config().text.max_len);
+  EXPECT_EQ(tm.text().forward(enc.ids, enc.mask).tokens.size(2), 256);
+  for (const auto* b : {&te, &ev}) {
+    const Tensor e = text::embed_texts(*b, {"a person walks forward", "someone walks forward", "a person bows",
+                                            "an angry person runs forward"});
+    const double same = t2m::sum(t2m::mul(e.select(0, 0), e.select(0, 1))).item();
+    EXPECT_GT(same, t2m::sum(t2m::mul(e.select(0, 0), e.select(0, 2))).item()) << b->model->kind();
+    EXPECT_GT(same, t2m::sum(t2m::mul(e.select(0, 0), e.select(0, 3))).item()) << b->model->kind();
+  }
+}
