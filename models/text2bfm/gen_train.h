@@ -1,0 +1,48 @@
+// gen_train.h — training the flow generator on a ProgramDataset (`t2m train gen`): Eq 14–15 conditional flow
+// matching on standardised programs, condition dropout (FlowGeneratorConfig::cond_dropout, 0.2), AdamW
+// (no decay on 1-D parameters), warm-up + cosine learning rate, gradient clipping at 1, in resumable chunks.
+//
+// One step: batch (B windows of W program frames, program_dataset.h) from rng "data"; t ~ U[0, 1) and ε ~ N(0, I)
+// from rng "flow" (nn::sample_flow_pair); dropped samples from rng "drop"; loss = mean over real frames and
+// channels of (v_η(m_t, t, Y) − (m − ε))² (nn::flow_matching_loss with the frame mask).
+// Resumable: nn::TrainState at paths.state every save_every steps and at the end (parameters, AdamW moments,
+// the three generators, step); resume = bit-identical continuation for the same thread count. stop_at > 0 ends
+// the run (resumably) after that many steps in total. JSONL log (step, loss, lr, grad_norm) and an SVG plot.
+// Errors (t2m::Error): bad config values ("gen train: ..."), and those of TrainState::load on a mismatched state.
+#pragma once
+#include <cstdint>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "models/text2bfm/generator.h"
+#include "models/text2bfm/program_dataset.h"
+
+namespace t2m::text2bfm {
+
+struct GenTrainConfig {
+  int64_t steps = 3000;
+  int64_t batch = 32;
+  double lr = 3e-4;
+  double weight_decay = 0.01;
+  int64_t warmup = 100;
+  uint64_t seed = 1;
+  int64_t save_every = 250;
+  int64_t stop_at = 0;
+  nlohmann::json to_json() const;
+  void validate() const;
+};
+
+struct GenTrainPaths {
+  std::string state, log, svg;
+};
+
+struct GenTrainResult {
+  int64_t steps = 0;         // total steps done
+  double final_loss = 0;     // smoothed
+  double seconds = 0;        // this run
+};
+
+GenTrainResult train_generator(FlowGenerator& gen, const ProgramDataset& data, const GenTrainConfig& cfg,
+                               const GenTrainPaths& paths, bool resume, const std::string& label = "train gen");
+
+}  // namespace t2m::text2bfm
