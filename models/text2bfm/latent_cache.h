@@ -10,7 +10,7 @@
 // thread count (each clip is computed by one thread; B runs per clip).
 //
 // File (nn::Checkpoint: atomic temp + rename, CRC-32C): tensors "z" [F, d] f32, "states" [F, S] f32, "offset"
-// [C + 1] i64; meta {"format": "t2m-latents-1", "split", "bfm_checksum" (8 hex digits, CRC-32C of the policy
+// [C + 1] i64; meta {"format": "t2m-latents-1", "split", "bfm_checksum" (16 hex digits, FNV-1a 64 of the policy
 // file's bytes), "window" L, "clips": [names], "content": [labels], "style": [labels], "data": provenance}.
 // ensure_latent_cache(path, bfm_checksum, L, build): loads `path` when it exists and its bfm_checksum and window
 // match; otherwise (no file, another BFM, another L) calls build() and saves its result atomically, so a changed
@@ -33,7 +33,7 @@ namespace t2m::text2bfm {
 
 struct LatentSet {
   std::string split;
-  std::string bfm_checksum;             // 8 hex digits
+  std::string bfm_checksum;             // 16 hex digits
   int window = 8;                       // L of Eq 2
   int64_t z_dim = 0, obs_dim = 0;
   std::vector<std::string> names;       // clip names, sorted
@@ -53,7 +53,8 @@ struct LatentSet {
   void validate(const std::string& where) const;  // throws Error(where + ...) on inconsistent contents
 };
 
-// CRC-32C of a file's bytes as 8 lower-case hex digits. Error when the file cannot be read.
+// FNV-1a 64 of a file's bytes as 16 lower-case hex digits (not a CRC: the CRC of a whole checkpoint file,
+// which ends with its own CRC, is a constant). Error when the file cannot be read.
 std::string file_checksum(const std::string& path);
 
 // Text2BFM Eq 2 over every clip of `split` (see above); progress(done, total) after each clip (any thread order).
