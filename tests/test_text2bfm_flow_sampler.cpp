@@ -33,7 +33,8 @@ FlowGeneratorConfig tiny() {
 // m_{k+1} - a = (m_k - a)(1 - h / (1 - r_k)) and the last step (r = 1 - h) lands on a.
 TEST(FlowSampler, EulerRecoversTheEndpointOfTheStraightPath) {
   Generator g(1);
-  const Tensor m0 = rand_normal({3, 4, 2}, g, 0.0, 1.0, DType::f64), a = rand_normal({3, 4, 2}, g, 0.0, 1.0, DType::f64);
+  const Tensor m0 = rand_normal({3, 4, 2}, g, 0.0, 1.0, DType::f64);
+  const Tensor a = rand_normal({3, 4, 2}, g, 0.0, 1.0, DType::f64);
   int calls = 0;
   auto v = [&](const Tensor& m, const Tensor& r) {
     EXPECT_EQ(r.shape(), (Shape{3}));

@@ -36,7 +36,8 @@ FlowGenerator::FlowGenerator(const FlowGeneratorConfig& cfg, Generator& gen) : c
   text_ = register_module("text", std::make_shared<TextAdapter>(cfg_.adapter, gen));
   for (int64_t i = 0; i < cfg_.depth; ++i)
     blocks_.push_back(std::make_shared<nn::DiTBlock>(
-        nn::DiTBlockConfig{.dim = cfg_.width, .heads = cfg_.heads, .ctx_dim = cfg_.ctx_dim, .mlp_ratio = cfg_.mlp_ratio},
+        nn::DiTBlockConfig{
+            .dim = cfg_.width, .heads = cfg_.heads, .ctx_dim = cfg_.ctx_dim, .mlp_ratio = cfg_.mlp_ratio},
         gen));
   register_module("blocks", std::make_shared<ModuleList<nn::DiTBlock>>(blocks_));
   f_norm_ = register_module("f_norm", std::make_shared<nn::LayerNorm>(cfg_.width, /*affine=*/false, 1e-6));
