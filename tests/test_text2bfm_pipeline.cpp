@@ -218,6 +218,18 @@ TEST_F(Pipeline, MissingOrMismatchedCheckpoints) {
   p = good;
   p.vbb = (d / "vbb.t2mckpt").string();
   EXPECT_THROW(text2bfm::load_text2bfm(p), Error);
+  // A generator trained on another BFM's latents loads, with a warning.
+  {
+    auto gb = text2bfm::load_gen_checkpoint(good.gen);
+    gb.train = {{"bfm_checksum", "deadbeef"}};
+    text2bfm::save_gen_checkpoint(gb, (d / "gen_other.t2mckpt").string());
+    p = good;
+    p.gen = (d / "gen_other.t2mckpt").string();
+    const auto m = text2bfm::load_text2bfm(p);
+    ASSERT_EQ(m.warnings.size(), 1u);
+    EXPECT_NE(m.warnings[0].find("deadbeef"), std::string::npos);
+    EXPECT_TRUE(models_->warnings.empty());
+  }
   // A corrupted generator file.
   std::ofstream(d / "bad.t2mckpt") << "not a checkpoint";
   p = good;

@@ -42,6 +42,7 @@ void run(const GenerateArgs& a) {
   if (a.threads > 0) t2m::set_num_threads(a.threads);
   a.opt.validate();
   auto models = t2m::text2bfm::load_text2bfm(t2m::text2bfm::PipelinePaths::in_dir(a.checkpoints));
+  for (const auto& w : models.warnings) std::fprintf(stderr, "generate: warning: %s\n", w.c_str());
   auto g = t2m::text2bfm::generate_motion(models, a.prompt, a.opt);
   t2m::text2bfm::WriteOptions w;
   w.render = !a.no_render;
@@ -50,6 +51,8 @@ void run(const GenerateArgs& a) {
   std::printf("%s: %zu clause(s), %.2f s (%d frames), falls %d\n", a.out.c_str(), g.clauses.size(),
               metrics["duration_s"].get<double>(), g.traj.frames, g.falls);
   const auto& t = g.times;
+  std::printf("  cpu (s): text %.4f  sample %.4f  decode %.4f  rollout %.4f\n", g.cpu.text, g.cpu.sample,
+              g.cpu.decode, g.cpu.rollout);
   std::printf("  timing (s, %d threads): text %.4f  sample %.4f  decode %.4f  rollout %.4f  export %.4f  "
               "render %.4f\n",
               t2m::get_num_threads(), t.text, t.sample, t.decode, t.rollout, t.exporting, t.render);

@@ -2,6 +2,7 @@
 #include "models/text2bfm/pipeline.h"
 
 #include <chrono>
+#include <ctime>
 #include <cmath>
 #include <filesystem>
 
@@ -11,6 +12,7 @@
 #include "models/text/tokenizer.h"
 #include "models/text2bfm/compose.h"
 #include "models/text2bfm/flow_sampler.h"
+#include "models/text2bfm/latent_cache.h"
 #include "models/text2bfm/vbb_checkpoint.h"
 #include "sim/env.h"
 #include "sim/observation.h"
@@ -25,6 +27,13 @@ constexpr double kMaxLengthS = 120.0;
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// Process CPU time (all threads), seconds: stage cost on a machine where other processes hold the cores.
+double process_cpu_s() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
 }
 
 void require_file(const std::string& path, const std::string& what, const std::string& how) {
@@ -79,6 +88,14 @@ Text2BfmModels load_text2bfm(const PipelinePaths& p) {
   mismatch("VBB latent vs generator latent", vc.latent, gc.latent);
   mismatch("VBB compression vs the generator's", vc.compression(), m.gen.compression);
   mismatch("VBB in_dim vs BFM z_dim", vc.in_dim, fc.z_dim);
+  // The generator learned programs of latents from one BFM (its B); a rollout with another policy still runs but
+  // the latents mean something else to it: say so in the outputs.
+  if (m.gen.train.contains("bfm_checksum") && m.gen.train["bfm_checksum"].is_string()) {
+    const std::string want = m.gen.train["bfm_checksum"].get<std::string>(), have = file_checksum(p.bfm);
+    if (want != have)
+      m.warnings.push_back("the generator was trained on latents of BFM " + want + ", the policy " + p.bfm +
+                           " is " + have);
+  }
   sim::Env probe(m.humanoid);
   mismatch("BFM obs_dim vs the humanoid's", fc.obs_dim, probe.obs_dim());
   mismatch("BFM action_dim vs the humanoid's", fc.action_dim, probe.action_dim());
@@ -120,8 +137,10 @@ Generation generate_motion(Text2BfmModels& m, const std::string& prompt, const G
 
   // Stage "text": tokenizer + frozen text encoder.
   auto t0 = clock::now();
+  double c0 = process_cpu_s();
   const TextTokens tt = encode_prompt_texts(m, g.clauses);
   g.times.text = seconds_since(t0);
+  g.cpu.text = process_cpu_s() - c0;
 
   // Lengths (see the header).
   const int64_t T = std::max<int64_t>(1, std::llround(opt.length_s / sim::kControlDt));
@@ -131,6 +150,7 @@ Generation generate_motion(Text2BfmModels& m, const std::string& prompt, const G
 
   // Stage "sample": m(0) ~ N(0, I), Eq 16 with CFG, then undo the standardisation.
   t0 = clock::now();
+  c0 = process_cpu_s();
   Generator rng(opt.seed);
   FlowSamplerOptions so;
   so.steps = opt.steps;
@@ -144,9 +164,11 @@ Generation generate_motion(Text2BfmModels& m, const std::string& prompt, const G
     for (int64_t i = 0; i < prog.numel(); ++i) p[i] = p[i] * sd[i % dm] + mu[i % dm];
   }
   g.times.sample = seconds_since(t0);
+  g.cpu.sample = process_cpu_s() - c0;
 
   // Stage "decode": D_θ (Eq 4), Compose (Eq 18-19), projection onto the policy's sphere.
   t0 = clock::now();
+  c0 = process_cpu_s();
   {
     ag::NoGradGuard ng;
     Generator unused(0);
@@ -159,9 +181,11 @@ Generation generate_motion(Text2BfmModels& m, const std::string& prompt, const G
   }
   project_to_sphere(g.z);
   g.times.decode = seconds_since(t0);
+  g.cpu.decode = process_cpu_s() - c0;
 
   // Stage "rollout": the BFM policy mean in MuJoCo from the standing start.
   t0 = clock::now();
+  c0 = process_cpu_s();
   sim::Env env(m.humanoid);
   const int D = env.obs_dim(), nq = env.nq(), nv = env.nv(), A = env.action_dim();
   const int64_t steps = g.z.size(0), d = g.z.size(1);
@@ -201,6 +225,7 @@ Generation generate_motion(Text2BfmModels& m, const std::string& prompt, const G
     }
   }
   g.times.rollout = seconds_since(t0);
+  g.cpu.rollout = process_cpu_s() - c0;
   return g;
 }
 

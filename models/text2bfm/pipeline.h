@@ -22,7 +22,8 @@
 //   states.bin    nn::Checkpoint (CRC-checked) meta {"format": "t2m-states-1", "fps": 30, "prompt": ...},
 //                 tensors "obs" (T+1, obs_dim) f32, "qpos" (T+1, nq) f64, "qvel" (T+1, nv) f64, "z" (T, d) f32
 //   metrics.json  prompt, clauses, options, duration_s, frames, falls, fell, first_fall_s, min_root_height_m,
-//                 timing_s per stage (text, sample, decode, rollout, export, render, total), threads.
+//                 timing_s per stage (text, sample, decode, rollout, export, render, total; wall), cpu_s per
+//                 generation stage (process CPU time, all threads), threads, warnings.
 // Errors (t2m::Error): an empty prompt; a prompt (or, with compose, a clause) whose words are all unknown to the
 // tokenizer; length <= 0 or > 120 s; steps < 1; non-finite cfg; overlap < 0; a missing checkpoint (names the file
 // and the command that makes it); mismatched model widths; an existing or unwritable output directory.
@@ -57,10 +58,12 @@ struct Text2BfmModels {
   std::unique_ptr<bfm::FbAgent> policy;
   std::shared_ptr<const sim::Humanoid> humanoid;
   PipelinePaths paths;
+  std::vector<std::string> warnings;  // e.g. the generator's BFM checksum differs from the policy file's
 };
 
 // Loads and cross-checks the four checkpoints (text dim = adapter tok_dim, VBB latent = generator latent,
-// VBB in_dim = policy z_dim, VBB compression = the generator's, policy obs/action dims = the humanoid's).
+// VBB in_dim = policy z_dim, VBB compression = the generator's, policy obs/action dims = the humanoid's). A
+// generator trained on another BFM's latents (its train.bfm_checksum) is a warning, not an error.
 Text2BfmModels load_text2bfm(const PipelinePaths& p);
 
 struct GenerateOptions {
@@ -87,7 +90,8 @@ struct Generation {
   int falls = 0;
   double first_fall_s = -1;           // -1: no fall
   double min_root_height = 0;
-  StageTimes times;
+  StageTimes times;                   // wall seconds per stage
+  StageTimes cpu;                     // process CPU seconds per stage (all threads)
 };
 
 // The tokenizer + frozen text encoder: token features (B, L, D) and mask (B, L) of the texts (each must have a

@@ -106,7 +106,9 @@ json write_generation(Generation& g, const Text2BfmModels& m, const std::string&
       {"min_root_height_m", g.min_root_height},
       {"fall_rule", "root (hips) below 0.5 m"},
       {"timing_s", timing_json(g.times)},
+      {"cpu_s", {{"text", g.cpu.text}, {"sample", g.cpu.sample}, {"decode", g.cpu.decode}, {"rollout", g.cpu.rollout}}},
       {"threads", get_num_threads()},
+      {"warnings", m.warnings},
       {"checkpoints", {{"text", m.paths.text}, {"vbb", m.paths.vbb}, {"gen", m.paths.gen}, {"bfm", m.paths.bfm}}},
       {"files", w.render ? json{"motion.bvh", "render.mp4", "states.bin", "metrics.json"}
                          : json{"motion.bvh", "states.bin", "metrics.json"}}};
