@@ -3,12 +3,12 @@
 // tiny synthetic directory (report written; bad input: one error line, non-zero exit, no report).
 #include <gtest/gtest.h>
 
+#include <unistd.h>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
-#include <unistd.h>
 
 #include "models/data/captions.h"
 #include "models/data/features.h"
@@ -59,7 +59,7 @@ std::string npy_bytes(const std::string& dict, const std::string& data, int majo
 }
 
 const std::vector<std::pair<std::string, std::string>> kLabels = {
-    {"walk", "normal"}, {"run", "happy"}, {"walk", "sad"},   {"run", "angry"},
+    {"walk", "normal"}, {"run", "happy"},  {"walk", "sad"},   {"run", "angry"},
     {"walk", "happy"},  {"run", "normal"}, {"walk", "angry"}, {"run", "sad"}};
 
 // 40 motions with captions (no prompts) + 2 prompts x 3 samples.
@@ -189,7 +189,8 @@ TEST(EvaluateMotions, SelfReferenceFidIsZeroAndMetricsInRange) {
   const auto md = eval::load_motion_dir(d.string());
   const auto ev = tiny_evaluator();
   eval::MotionSet set;
-  for (int64_t i : md.main_set()) set.captions.push_back(md.entries[i].caption), set.motions.push_back(&md.entries[i].features);
+  for (int64_t i : md.main_set())
+    set.captions.push_back(md.entries[i].caption), set.motions.push_back(&md.entries[i].features);
   for (const auto& g : md.prompt_groups()) {
     set.groups.emplace_back();
     for (int64_t i : g) set.groups.back().push_back(&md.entries[i].features);
@@ -240,7 +241,10 @@ TEST(EvalMotionsCommand, SyntheticDirectoryAndBadInput) {
   text::save_retrieval_checkpoint(tiny_evaluator(), ck);
   const fs::path out = w / "report.json";
   ASSERT_EQ(run("eval motions '" + d.string() + "' --evaluator '" + ck + "' --reference '" + d.string() +
-                "' --runs 2 --out '" + out.string() + "'", w / "ok.log"), 0) << read(w / "ok.log");
+                    "' --runs 2 --out '" + out.string() + "'",
+                w / "ok.log"),
+            0)
+      << read(w / "ok.log");
   const json j = json::parse(read(out));
   EXPECT_EQ(j["runs"], 2);
   EXPECT_EQ(j["count"], 42);
@@ -251,15 +255,20 @@ TEST(EvalMotionsCommand, SyntheticDirectoryAndBadInput) {
   // Bad input: one "t2m: ..." line, exit status 1, no report.
   const fs::path none = w / "none.json";
   EXPECT_EQ(run("eval motions '" + (w / "missing").string() + "' --evaluator '" + ck + "' --reference none --out '" +
-                none.string() + "'", w / "bad1.log"), 1);
+                    none.string() + "'",
+                w / "bad1.log"),
+            1);
   const std::string bad1 = read(w / "bad1.log");
   EXPECT_EQ(bad1.rfind("t2m: motions ", 0), 0u) << bad1;
   EXPECT_EQ(std::count(bad1.begin(), bad1.end(), '\n'), 1) << bad1;
   EXPECT_EQ(run("eval motions '" + d.string() + "' --evaluator '" + (w / "nope.t2mckpt").string() +
-                "' --reference none --out '" + none.string() + "'", w / "bad2.log"), 1);
+                    "' --reference none --out '" + none.string() + "'",
+                w / "bad2.log"),
+            1);
   EXPECT_NE(read(w / "bad2.log").find("not found"), std::string::npos) << read(w / "bad2.log");
   EXPECT_EQ(run("eval motions '" + d.string() + "' --real --evaluator '" + ck + "' --out '" + none.string() + "'",
-                w / "bad3.log"), 1);
+                w / "bad3.log"),
+            1);
   EXPECT_NE(read(w / "bad3.log").find("not both"), std::string::npos) << read(w / "bad3.log");
   EXPECT_FALSE(fs::exists(none));
 }

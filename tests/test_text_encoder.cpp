@@ -122,17 +122,20 @@ TEST(TextEncoder, GradcheckFloat64AllParameters) {
   text::TextEncoder enc(tiny_text(), g);
   randomise(enc, 20);
   const Tensor ids = ids_of({2, 4, 6, 3, 0, 2, 8, 3, 0, 0}, 2, 5), m = mask_of({4, 3}, 5, DType::f64);
-  fd_check([&] {
-    const auto f = enc.forward(ids, m);
-    // pooled plus the real tokens (padded rows are unspecified): (B, E) + sum over real tokens
-    return ag::concat({f.pooled, ag::sum(f.tokens * ag::Variable(m.unsqueeze(2)), {1})}, 1);
-  }, enc.parameters());
+  fd_check(
+      [&] {
+        const auto f = enc.forward(ids, m);
+        // pooled plus the real tokens (padded rows are unspecified): (B, E) + sum over real tokens
+        return ag::concat({f.pooled, ag::sum(f.tokens * ag::Variable(m.unsqueeze(2)), {1})}, 1);
+      },
+      enc.parameters());
 }
 
 TEST(TextEncoder, BadInput) {
   Generator g(4);
   text::TextEncoder enc(tiny_text(), g);
-  expect_error([&] { enc.forward(ids_of(std::vector<int64_t>(6, 1), 1, 6), mask_of({6}, 6)); }, {"TextEncoder", "max_len"});
+  expect_error([&] { enc.forward(ids_of(std::vector<int64_t>(6, 1), 1, 6), mask_of({6}, 6)); },
+               {"TextEncoder", "max_len"});
   expect_error([&] { enc.forward(Tensor::zeros({1, 3}), mask_of({3}, 3)); }, {"TextEncoder", "int64"});
   expect_error([&] { enc.forward(ids_of({1, 2, 3}, 1, 3), mask_of({3}, 4)); }, {"TextEncoder", "mask"});
   expect_error([&] { enc.forward(ids_of({1, 2, 3}, 1, 3), mask_of({0}, 3)); }, {"no real entry"});
@@ -157,8 +160,16 @@ TEST(MotionEncoder, ShapesPaddingInvarianceAndErrors) {
   EXPECT_LT(max_abs_diff(a.data(), b.data()), 1e-12);
   const auto c = enc.forward(ag::Variable(x2), mask_of({6}, 8, DType::f64));
   EXPECT_GT(max_abs_diff(a.data(), c.data()), 1e-6);
-  expect_error([&] { enc.forward(ag::Variable(randn({1, 9, 3}, 4)), mask_of({9}, 9)); }, {"MotionEncoder", "max_patches"});
-  expect_error([&] { enc.forward(ag::Variable(randn({1, 4, 2}, 4)), mask_of({4}, 4)); }, {"MotionEncoder", "(B, T, 3)"});
+  expect_error(
+      [&] {
+        enc.forward(ag::Variable(randn({1, 9, 3}, 4)), mask_of({9}, 9));
+      },
+      {"MotionEncoder", "max_patches"});
+  expect_error(
+      [&] {
+        enc.forward(ag::Variable(randn({1, 4, 2}, 4)), mask_of({4}, 4));
+      },
+      {"MotionEncoder", "(B, T, 3)"});
   expect_error([&] { enc.forward(ag::Variable(randn({1, 4, 3}, 4)), mask_of({4}, 5)); }, {"MotionEncoder", "mask"});
   expect_error([&] { enc.forward(ag::Variable(randn({1, 4, 3}, 4)), mask_of({0}, 4)); }, {"no real entry"});
 }
@@ -188,7 +199,11 @@ TEST(Evaluator, ShapesPaddingInvarianceAndErrors) {
   const auto m1 = ev.embed_motion(ag::Variable(x.slice(1, 0, 4).contiguous()), mask_of({4}, 4, DType::f64));
   const auto m2 = ev.embed_motion(ag::Variable(x2), mask_of({4}, 8, DType::f64));
   EXPECT_LT(max_abs_diff(m1.data(), m2.data()), 1e-12);
-  expect_error([&] { ev.embed_motion(ag::Variable(randn({1, 9, 3}, 4)), mask_of({9}, 9)); }, {"Evaluator", "max_frames"});
+  expect_error(
+      [&] {
+        ev.embed_motion(ag::Variable(randn({1, 9, 3}, 4)), mask_of({9}, 9));
+      },
+      {"Evaluator", "max_frames"});
   expect_error([&] { ev.embed_text(ids_of({1, 2, 3, 4, 5, 6}, 1, 6), mask_of({6}, 6)); }, {"Evaluator", "max_len"});
   expect_error([&] { ev.embed_text(ids_of({1, 2}, 1, 2), mask_of({0}, 2)); }, {"Evaluator", "no real entry"});
   expect_error([&] { eval::EvaluatorConfig::from_json({{"vocab", 3}}); }, {"Evaluator", "word_dim"});
@@ -229,7 +244,8 @@ int overfit_top1(text::RetrievalModel& m, int steps) {
     opt.step();
   }
   ag::NoGradGuard ng;
-  const Tensor t = nn::l2_normalize(m.embed_text(ids, tm)).data(), mo = nn::l2_normalize(m.embed_motion(ag::Variable(x), xm)).data();
+  const Tensor t = nn::l2_normalize(m.embed_text(ids, tm)).data(),
+               mo = nn::l2_normalize(m.embed_motion(ag::Variable(x), xm)).data();
   const Tensor sim = t2m::matmul(t, mo.transpose(0, 1));  // (4 texts, 4 motions)
   int hits = 0;
   for (int64_t i = 0; i < 4; ++i) {

@@ -3,9 +3,9 @@
 // equals a straight run bit for bit, its log and plot).
 #include <gtest/gtest.h>
 
+#include <unistd.h>
 #include <filesystem>
 #include <fstream>
-#include <unistd.h>
 
 #include "models/data/captions.h"
 #include "models/data/features.h"
@@ -141,9 +141,8 @@ TEST(RetrievalCheckpoint, BadCheckpoints) {
   };
   const auto p1 = variant("format.t2mckpt", [](nn::Checkpoint& c) { c.meta["format"] = "something-else"; });
   expect_error([&] { text::load_text_motion_model(p1); }, {"not a retrieval checkpoint"});
-  const auto p2 = variant("std.t2mckpt", [](nn::Checkpoint& c) {
-    c.put("feature_std", Tensor::zeros({data::kFeatureDim}));
-  });
+  const auto p2 =
+      variant("std.t2mckpt", [](nn::Checkpoint& c) { c.put("feature_std", Tensor::zeros({data::kFeatureDim})); });
   expect_error([&] { text::load_text_motion_model(p2); }, {"feature_std"});
   const auto p3 = variant("tok.t2mckpt", [](nn::Checkpoint& c) { c.meta.erase("tokenizer"); });
   expect_error([&] { text::load_text_motion_model(p3); }, {"tokenizer"});
@@ -204,13 +203,14 @@ TEST(RetrievalTrain, StopResumeEqualsStraightRun) {
   EXPECT_EQ(run("chunked", 0, true, b2).steps, 8);
   const auto pa = a.model->named_parameters(), pb = b2.model->named_parameters();
   ASSERT_EQ(pa.size(), pb.size());
-  for (size_t i = 0; i < pa.size(); ++i) EXPECT_EQ(max_abs_diff(pa[i].second.data(), pb[i].second.data()), 0.0) << pa[i].first;
-  const auto log = nn::read_train_log((fs::temp_directory_path() / ("t2m_test_text_" + std::to_string(::getpid())) /
-                                       "chunked" / "log.jsonl").string());
+  for (size_t i = 0; i < pa.size(); ++i)
+    EXPECT_EQ(max_abs_diff(pa[i].second.data(), pb[i].second.data()), 0.0) << pa[i].first;
+  const auto log = nn::read_train_log(
+      (fs::temp_directory_path() / ("t2m_test_text_" + std::to_string(::getpid())) / "chunked" / "log.jsonl").string());
   ASSERT_EQ(log.size(), 8u);
   EXPECT_EQ(log.back()["step"], 8);
-  EXPECT_TRUE(fs::exists(fs::temp_directory_path() / ("t2m_test_text_" + std::to_string(::getpid())) / "chunked" /
-                         "loss.svg"));
+  EXPECT_TRUE(
+      fs::exists(fs::temp_directory_path() / ("t2m_test_text_" + std::to_string(::getpid())) / "chunked" / "loss.svg"));
   // Resuming with another config is refused.
   auto b3 = text_bundle(9);
   cfg.lr = 1e-3;
@@ -223,7 +223,8 @@ TEST(RetrievalTrain, BadConfig) {
   text::RetrievalTrainConfig cfg;
   cfg.batch = 64;
   text::RetrievalTrainPaths p{"/nonexistent/s", "/nonexistent/l", ""};
-  expect_error([&] { text::train_retrieval(b, cs, {}, cfg, p, false, "x"); }, {"train_retrieval", "fewer than one batch"});
+  expect_error([&] { text::train_retrieval(b, cs, {}, cfg, p, false, "x"); },
+               {"train_retrieval", "fewer than one batch"});
   cfg.batch = 2;
   b.window = 100;
   expect_error([&] { text::train_retrieval(b, cs, {}, cfg, p, false, "x"); }, {"train_retrieval", "window"});
@@ -245,8 +246,8 @@ TEST(ShippedCheckpoints, LoadAndSeparateCaptions) {
   const auto enc = te.tokenizer.encode_batch({"a person walks forward"}, tm.config().text.max_len);
   EXPECT_EQ(tm.text().forward(enc.ids, enc.mask).tokens.size(2), 256);
   for (const auto* b : {&te, &ev}) {
-    const Tensor e = text::embed_texts(*b, {"a person walks forward", "someone walks forward", "a person bows",
-                                            "an angry person runs forward"});
+    const Tensor e = text::embed_texts(
+        *b, {"a person walks forward", "someone walks forward", "a person bows", "an angry person runs forward"});
     const double same = t2m::sum(t2m::mul(e.select(0, 0), e.select(0, 1))).item();
     EXPECT_GT(same, t2m::sum(t2m::mul(e.select(0, 0), e.select(0, 2))).item()) << b->model->kind();
     EXPECT_GT(same, t2m::sum(t2m::mul(e.select(0, 0), e.select(0, 3))).item()) << b->model->kind();

@@ -104,9 +104,10 @@ void run_eval(const EvalArgs& a) {
   j["multimodality_prompts"] = set.groups.size();
   j["fid_reference"] = ref_what;
   j["evaluator"] = a.evaluator;
-  j["note"] = "embeddings are unit vectors of the GRU evaluator trained on the Bandai train split: MM-Dist, "
-              "Diversity and FID are on that scale, not comparable to HumanML3D numbers; chance R-precision "
-              "top-k = k/32";
+  j["note"] =
+      "embeddings are unit vectors of the GRU evaluator trained on the Bandai train split: MM-Dist, "
+      "Diversity and FID are on that scale, not comparable to HumanML3D numbers; chance R-precision "
+      "top-k = k/32";
   std::string out = a.out;
   if (out.empty())
     out = a.real ? t2m::cli::default_output_dir("eval") + "/real_" + a.split + ".json" : a.dir + "/eval.json";

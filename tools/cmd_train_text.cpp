@@ -43,8 +43,8 @@ void add_common(CLI::App* c, TrainArgs& a, const std::string& kind) {
   c->add_option("--data", a.data.data_dir, "motion data directory (default: $T2M_DATA or ../shared/data/bandai)");
   c->add_option("--cache", a.data.cache_dir, "cache directory (default: $T2M_CACHE or ~/.cache/t2m)");
   c->add_option("--out", a.out, "output directory (default: ~/.cache/t2m/" + kind + ")");
-  c->add_option("--ship", a.ship, "also copy the final checkpoint to this path (e.g. models/checkpoints/" + kind +
-                                      ".t2mckpt)");
+  c->add_option("--ship", a.ship,
+                "also copy the final checkpoint to this path (e.g. models/checkpoints/" + kind + ".t2mckpt)");
   c->add_flag("--resume", a.resume, "continue from OUT/train_state.t2mckpt when it exists");
   c->add_option("--steps", a.cfg.steps, "optimizer steps")->capture_default_str()->check(CLI::PositiveNumber);
   c->add_option("--batch", a.cfg.batch, "batch size (pairs per InfoNCE batch)")->capture_default_str();
@@ -86,7 +86,10 @@ void run_train(const TrainArgs& a, const std::string& kind,
 
   t2m::text::RetrievalTrainPaths p{out + "/train_state.t2mckpt", out + "/log.jsonl", out + "/loss.svg"};
   const auto r = t2m::text::train_retrieval(b, train, val, a.cfg, p, a.resume, "train " + kind);
-  b.train = {{"command", cmdline},  {"seed", a.cfg.seed}, {"steps", r.steps}, {"config", a.cfg.to_json()},
+  b.train = {{"command", cmdline},
+             {"seed", a.cfg.seed},
+             {"steps", r.steps},
+             {"config", a.cfg.to_json()},
              {"data", "Bandai-Namco-Research-Motiondataset (CC BY-NC 4.0), train split"}};
   const std::string ckpt = out + "/" + kind + ".t2mckpt";
   t2m::text::save_retrieval_checkpoint(b, ckpt);
@@ -101,8 +104,9 @@ void run_train(const TrainArgs& a, const std::string& kind,
                   {"final_loss_smoothed", r.final_loss},
                   {"parameters", b.model->num_parameters()},
                   {"vocab", b.tokenizer.vocab_size()},
-                  {"data", "Bandai-Namco-Research-Motiondataset (CC BY-NC 4.0); R-precision in batches of 32, "
-                           "20 runs, mean and 95% CI; captions make_caption(labels, seed 7, index 0)"},
+                  {"data",
+                   "Bandai-Namco-Research-Motiondataset (CC BY-NC 4.0); R-precision in batches of 32, "
+                   "20 runs, mean and 95% CI; captions make_caption(labels, seed 7, index 0)"},
                   {"val", sv.to_json()},
                   {"test", st.to_json()},
                   {"train", b.train}};
@@ -111,10 +115,11 @@ void run_train(const TrainArgs& a, const std::string& kind,
   std::printf("%s: %lld steps, loss %.4f; checkpoint %s%s%s\n", kind.c_str(), (long long)r.steps, r.final_loss,
               ckpt.c_str(), a.ship.empty() ? "" : ", shipped to ", a.ship.c_str());
   for (const auto& [name, s] : {std::pair{"val", &sv}, std::pair{"test", &st}})
-    std::printf("  %s split (%lld clips): R-precision top-1 %.3f +- %.3f, top-2 %.3f, top-3 %.3f +- %.3f; "
-                "shuffled control top-3 %.3f (chance 3/32 = 0.094)\n",
-                name, (long long)s->clips, s->top[0].mean, s->top[0].ci95, s->top[1].mean, s->top[2].mean,
-                s->top[2].ci95, s->control[2].mean);
+    std::printf(
+        "  %s split (%lld clips): R-precision top-1 %.3f +- %.3f, top-2 %.3f, top-3 %.3f +- %.3f; "
+        "shuffled control top-3 %.3f (chance 3/32 = 0.094)\n",
+        name, (long long)s->clips, s->top[0].mean, s->top[0].ci95, s->top[1].mean, s->top[2].mean, s->top[2].ci95,
+        s->control[2].mean);
   std::printf("  log %s, plot %s, summary %s/summary.json\n", p.log.c_str(), p.svg.c_str(), out.c_str());
 }
 
@@ -158,11 +163,14 @@ void add_train_text(CLI::App& app) {
       a->tm.motion.embed_dim = a->tm.text.embed_dim;
       a->tm.motion.feature_dim = t2m::data::kFeatureDim;
       a->tm.motion.max_patches = (a->window + a->tm.motion.patch - 1) / a->tm.motion.patch;
-      run_train(*a, "text_encoder", [a](int64_t vocab, t2m::Generator& gen) {
-        t2m::text::TextMotionConfig cfg = a->tm;
-        cfg.text.vocab = vocab;
-        return std::make_shared<t2m::text::TextMotionModel>(cfg, gen);
-      }, "t2m train text" + as_flags(c->config_to_str(false, false)));
+      run_train(
+          *a, "text_encoder",
+          [a](int64_t vocab, t2m::Generator& gen) {
+            t2m::text::TextMotionConfig cfg = a->tm;
+            cfg.text.vocab = vocab;
+            return std::make_shared<t2m::text::TextMotionModel>(cfg, gen);
+          },
+          "t2m train text" + as_flags(c->config_to_str(false, false)));
     });
   }
   {
@@ -179,11 +187,14 @@ void add_train_text(CLI::App& app) {
     c->callback([a, c] {
       a->ev.feature_dim = t2m::data::kFeatureDim;
       a->ev.max_frames = a->window;
-      run_train(*a, "evaluator", [a](int64_t vocab, t2m::Generator& gen) {
-        t2m::eval::EvaluatorConfig cfg = a->ev;
-        cfg.vocab = vocab;
-        return std::make_shared<t2m::eval::Evaluator>(cfg, gen);
-      }, "t2m train evaluator" + as_flags(c->config_to_str(false, false)));
+      run_train(
+          *a, "evaluator",
+          [a](int64_t vocab, t2m::Generator& gen) {
+            t2m::eval::EvaluatorConfig cfg = a->ev;
+            cfg.vocab = vocab;
+            return std::make_shared<t2m::eval::Evaluator>(cfg, gen);
+          },
+          "t2m train evaluator" + as_flags(c->config_to_str(false, false)));
     });
   }
 }

@@ -23,8 +23,8 @@
 namespace t2m::eval {
 
 struct MotionSet {
-  std::vector<std::string> captions;                          // (N)
-  std::vector<const std::vector<float>*> motions;             // (N) raw features
+  std::vector<std::string> captions;                           // (N)
+  std::vector<const std::vector<float>*> motions;              // (N) raw features
   std::vector<std::vector<const std::vector<float>*>> groups;  // (P) x (S), may be empty
 };
 

@@ -28,9 +28,15 @@ void check_has_real(const Tensor& mask, const char* what) {
 }  // namespace
 
 nlohmann::json EvaluatorConfig::to_json() const {
-  return {{"vocab", vocab},         {"word_dim", word_dim},           {"text_hidden", text_hidden},
-          {"max_len", max_len},     {"feature_dim", feature_dim},     {"patch", patch},
-          {"motion_hidden", motion_hidden}, {"max_frames", max_frames}, {"embed_dim", embed_dim}};
+  return {{"vocab", vocab},
+          {"word_dim", word_dim},
+          {"text_hidden", text_hidden},
+          {"max_len", max_len},
+          {"feature_dim", feature_dim},
+          {"patch", patch},
+          {"motion_hidden", motion_hidden},
+          {"max_frames", max_frames},
+          {"embed_dim", embed_dim}};
 }
 
 EvaluatorConfig EvaluatorConfig::from_json(const nlohmann::json& j) {
@@ -59,7 +65,8 @@ Evaluator::Evaluator(const EvaluatorConfig& cfg, Generator& gen) : cfg_(cfg) {
   emb_ = register_module("text_emb", std::make_shared<nn::Embedding>(cfg_.vocab, cfg_.word_dim, gen));
   tgf_ = register_module("text_gru_f", std::make_shared<nn::GRU>(cfg_.word_dim, cfg_.text_hidden, gen));
   tgb_ = register_module("text_gru_b", std::make_shared<nn::GRU>(cfg_.word_dim, cfg_.text_hidden, gen));
-  tout1_ = register_module("text_out1", std::make_shared<nn::Linear>(2 * cfg_.text_hidden, cfg_.text_hidden, true, gen));
+  tout1_ =
+      register_module("text_out1", std::make_shared<nn::Linear>(2 * cfg_.text_hidden, cfg_.text_hidden, true, gen));
   tout2_ = register_module("text_out2", std::make_shared<nn::Linear>(cfg_.text_hidden, cfg_.embed_dim, true, gen));
   move_ = register_module("motion_move",
                           std::make_shared<nn::Linear>(cfg_.patch * cfg_.feature_dim, cfg_.motion_hidden, true, gen));

@@ -112,8 +112,8 @@ std::vector<float> read_npy_features(const std::string& path, int64_t dim) {
 
 void write_npy_features(const std::string& path, const std::vector<float>& rows, int64_t dim) {
   if (dim < 1 || rows.empty() || rows.size() % dim != 0)
-    throw Error("npy " + path + ": " + std::to_string(rows.size()) + " values are not (T >= 1, " +
-                std::to_string(dim) + ")");
+    throw Error("npy " + path + ": " + std::to_string(rows.size()) + " values are not (T >= 1, " + std::to_string(dim) +
+                ")");
   std::string h = "{'descr': '<f4', 'fortran_order': False, 'shape': (" + std::to_string(rows.size() / dim) + ", " +
                   std::to_string(dim) + "), }";
   while ((10 + h.size() + 1) % 64 != 0) h += ' ';

@@ -24,7 +24,7 @@
 namespace t2m::eval {
 
 struct MotionEntry {
-  std::string file;     // as written in motions.json
+  std::string file;  // as written in motions.json
   std::string caption;
   int64_t prompt = -1;  // -1: none
   int64_t frames = 0;

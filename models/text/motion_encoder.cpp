@@ -22,8 +22,8 @@ int64_t get_int(const nlohmann::json& j, const char* key) {
 }  // namespace
 
 nlohmann::json MotionEncoderConfig::to_json() const {
-  return {{"feature_dim", feature_dim}, {"patch", patch},         {"dim", dim},
-          {"layers", layers},           {"heads", heads},         {"mlp_ratio", mlp_ratio},
+  return {{"feature_dim", feature_dim}, {"patch", patch},        {"dim", dim},
+          {"layers", layers},           {"heads", heads},        {"mlp_ratio", mlp_ratio},
           {"max_patches", max_patches}, {"embed_dim", embed_dim}};
 }
 
@@ -73,7 +73,8 @@ Patches patchify(const ag::Variable& x, const Tensor& mask, int64_t patch, int64
 
 MotionEncoder::MotionEncoder(const MotionEncoderConfig& cfg, Generator& gen) : cfg_(cfg) {
   cfg_.validate();
-  in_proj_ = register_module("in_proj", std::make_shared<nn::Linear>(cfg_.patch * cfg_.feature_dim, cfg_.dim, true, gen));
+  in_proj_ =
+      register_module("in_proj", std::make_shared<nn::Linear>(cfg_.patch * cfg_.feature_dim, cfg_.dim, true, gen));
   pos_ = register_parameter("pos_emb", rand_normal({cfg_.max_patches, cfg_.dim}, gen, 0.0, 0.02));
   nn::TransformerBlockConfig bc;
   bc.dim = cfg_.dim, bc.heads = cfg_.heads, bc.mlp_ratio = cfg_.mlp_ratio;

@@ -36,7 +36,7 @@ struct MotionEncoderConfig {
   int64_t layers = 2;
   int64_t heads = 4;
   int64_t mlp_ratio = 4;
-  int64_t max_patches = 64;   // longest input: max_patches * patch frames
+  int64_t max_patches = 64;  // longest input: max_patches * patch frames
   int64_t embed_dim = 256;
 
   nlohmann::json to_json() const;

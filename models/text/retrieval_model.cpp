@@ -78,8 +78,8 @@ RetrievalCheckpoint read_retrieval_checkpoint(nn::Checkpoint ck, const std::stri
   if (!m.is_object() || !m.contains("format") || m["format"] != kFormat)
     fail(src, std::string("not a retrieval checkpoint (meta.format is not \"") + kFormat + "\")");
   if (!m.contains("kind") || !m["kind"].is_string() || m["kind"].get<std::string>() != kind)
-    fail(src, "holds a '" + (m.contains("kind") ? m["kind"].dump() : std::string("?")) + "' model, expected '" +
-                  kind + "'");
+    fail(src,
+         "holds a '" + (m.contains("kind") ? m["kind"].dump() : std::string("?")) + "' model, expected '" + kind + "'");
   if (!m.contains("config") || !m["config"].is_object()) fail(src, "meta.config missing or not an object");
   if (!m.contains("window") || !m["window"].is_number_integer() || m["window"].get<int64_t>() < 1)
     fail(src, "meta.window missing or not a positive integer");
@@ -92,8 +92,8 @@ RetrievalCheckpoint read_retrieval_checkpoint(nn::Checkpoint ck, const std::stri
   const Tensor& mean = ck.get("feature_mean");
   const Tensor& sd = ck.get("feature_std");
   if (mean.dim() != 1 || mean.dtype() != DType::f32 || sd.shape() != mean.shape() || sd.dtype() != DType::f32)
-    fail(src, "feature_mean / feature_std must be float32 (F,) tensors of one shape, got " +
-                  shape_str(mean.shape()) + " and " + shape_str(sd.shape()));
+    fail(src, "feature_mean / feature_std must be float32 (F,) tensors of one shape, got " + shape_str(mean.shape()) +
+                  " and " + shape_str(sd.shape()));
   r.bundle.stats.mean = mean.to_vector<float>();
   r.bundle.stats.std = sd.to_vector<float>();
   for (float s : r.bundle.stats.std)

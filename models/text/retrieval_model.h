@@ -43,9 +43,9 @@ class RetrievalModel : public nn::Module {
   // x (B, T, F) normalised features, mask (B, T) float -> (B, E) (not normalised).
   virtual ag::Variable embed_motion(const ag::Variable& x, const Tensor& mask) const = 0;
   virtual int64_t max_text_len() const = 0;
-  virtual int64_t max_frames() const = 0;   // longest motion input
+  virtual int64_t max_frames() const = 0;  // longest motion input
   virtual int64_t feature_dim() const = 0;
-  virtual const char* kind() const = 0;     // checkpoint kind: "text_encoder", "evaluator"
+  virtual const char* kind() const = 0;  // checkpoint kind: "text_encoder", "evaluator"
   virtual nlohmann::json config_json() const = 0;
 };
 
@@ -53,7 +53,7 @@ struct RetrievalBundle {
   std::shared_ptr<RetrievalModel> model;
   Tokenizer tokenizer;
   data::FeatureStats stats;
-  int64_t window = 0;               // training window (frames); embed_motions crops to it
+  int64_t window = 0;                               // training window (frames); embed_motions crops to it
   nlohmann::json train = nlohmann::json::object();  // provenance (command, seed, steps, data split)
 };
 
@@ -70,8 +70,7 @@ RetrievalCheckpoint read_retrieval_checkpoint(const std::string& path, const std
 RetrievalCheckpoint read_retrieval_checkpoint(nn::Checkpoint ck, const std::string& kind);
 
 Tensor embed_texts(const RetrievalBundle& b, const std::vector<std::string>& texts, int64_t batch = 128);
-Tensor embed_motions(const RetrievalBundle& b, const std::vector<const std::vector<float>*>& clips,
-                     int64_t batch = 64);
+Tensor embed_motions(const RetrievalBundle& b, const std::vector<const std::vector<float>*>& clips, int64_t batch = 64);
 
 // tokenizer.encode_batch(texts, max_len) with ids and mask cut to the longest sequence of the batch (L = max
 // length, at least 2): the encoders' outputs at real tokens do not depend on the padding length.

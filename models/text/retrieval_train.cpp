@@ -42,9 +42,15 @@ std::vector<double> top_values(const eval::RPrecision& r) { return r.top; }
 }  // namespace
 
 nlohmann::json RetrievalTrainConfig::to_json() const {
-  return {{"steps", steps},         {"batch", batch},           {"lr", lr},
-          {"weight_decay", weight_decay}, {"warmup", warmup}, {"mirror_prob", mirror_prob},
-          {"seed", seed},           {"save_every", save_every}, {"eval_every", eval_every}};
+  return {{"steps", steps},
+          {"batch", batch},
+          {"lr", lr},
+          {"weight_decay", weight_decay},
+          {"warmup", warmup},
+          {"mirror_prob", mirror_prob},
+          {"seed", seed},
+          {"save_every", save_every},
+          {"eval_every", eval_every}};
 }
 
 nlohmann::json RetrievalScores::to_json() const {
@@ -84,8 +90,8 @@ RetrievalTrainResult train_retrieval(RetrievalBundle& bundle, const std::vector<
   if (cfg.steps < 1 || cfg.batch < 2 || !(cfg.lr > 0) || cfg.warmup < 0 || cfg.save_every < 1 || cfg.eval_every < 0)
     throw Error("train_retrieval: bad config " + cfg.to_json().dump());
   if (bundle.window < 1 || bundle.window > model.max_frames())
-    throw Error("train_retrieval: window " + std::to_string(bundle.window) + " outside [1, max_frames = " +
-                std::to_string(model.max_frames()) + "]");
+    throw Error("train_retrieval: window " + std::to_string(bundle.window) +
+                " outside [1, max_frames = " + std::to_string(model.max_frames()) + "]");
   if ((int64_t)train.size() < cfg.batch)
     throw Error("train_retrieval: " + std::to_string(train.size()) + " train clips, fewer than one batch of " +
                 std::to_string(cfg.batch));
@@ -102,9 +108,9 @@ RetrievalTrainResult train_retrieval(RetrievalBundle& bundle, const std::vector<
   ao.lr = cfg.lr, ao.weight_decay = cfg.weight_decay, ao.no_decay = nn::no_decay_1d;
   nn::AdamW opt(params, ao);
   const auto sched = nn::LrSchedule::warmup_cosine(cfg.lr, std::min(cfg.warmup, cfg.steps - 1), cfg.steps, cfg.lr / 10);
-  nlohmann::json config = {{"kind", model.kind()},       {"model", model.config_json()}, {"train", cfg.to_json()},
-                           {"window", bundle.window},    {"vocab", bundle.tokenizer.vocab_size()},
-                           {"train_clips", train.size()}};
+  nlohmann::json config = {
+      {"kind", model.kind()},    {"model", model.config_json()},           {"train", cfg.to_json()},
+      {"window", bundle.window}, {"vocab", bundle.tokenizer.vocab_size()}, {"train_clips", train.size()}};
   nn::TrainState ts(params, config);
   ts.optimizer(opt);
   if (resume && std::filesystem::exists(paths.state)) ts.load(paths.state);

@@ -22,7 +22,7 @@ int64_t get_int(const nlohmann::json& j, const char* key) {
 }  // namespace
 
 nlohmann::json TextEncoderConfig::to_json() const {
-  return {{"vocab", vocab}, {"dim", dim},          {"layers", layers},      {"heads", heads},
+  return {{"vocab", vocab},         {"dim", dim},         {"layers", layers},      {"heads", heads},
           {"mlp_ratio", mlp_ratio}, {"max_len", max_len}, {"embed_dim", embed_dim}};
 }
 

@@ -11,7 +11,8 @@
 // outputs at real tokens do not depend on the padding length or the ids written into padding.
 // Parameters (in order; a Module lists its own before its children's): pos_emb, tok_emb.weight, block<l>.*,
 // norm.{weight,bias}, proj.{weight,bias}.
-// Init: tok_emb and pos_emb N(0, 0.02^2) (tok_emb drawn N(0, 1) by nn::Embedding, then scaled); the rest as their modules (PyTorch defaults) — all from the Generator.
+// Init: tok_emb and pos_emb N(0, 0.02^2) (tok_emb drawn N(0, 1) by nn::Embedding, then scaled); the rest as their
+// modules (PyTorch defaults) — all from the Generator.
 // Works in float32 and (after to(f64)) float64.
 // Errors (t2m::Error, message starts "TextEncoder:"): config sizes < 1, dim not divisible by heads (at
 // construction); ids not (B, L) int64, L > max_len or L < 1, mask not (B, L) float, a row with no real token.
@@ -32,8 +33,8 @@
 namespace t2m::text {
 
 struct TextEncoderConfig {
-  int64_t vocab = 0;        // tokenizer vocab_size()
-  int64_t dim = 256;        // D: token feature width (y_{j,k})
+  int64_t vocab = 0;  // tokenizer vocab_size()
+  int64_t dim = 256;  // D: token feature width (y_{j,k})
   int64_t layers = 2;
   int64_t heads = 4;
   int64_t mlp_ratio = 4;
