@@ -6,6 +6,7 @@
 #include <memory>
 #include <string>
 
+#include "models/text/tokenizer.h"
 #include "models/text2bfm/pipeline.h"
 #include "tensor/parallel.h"
 #include "tools/command.h"
@@ -41,6 +42,7 @@ void run(const GenerateArgs& a) {
   if (a.threads < 0) throw Error("generate: --threads must be >= 0");
   if (a.threads > 0) t2m::set_num_threads(a.threads);
   a.opt.validate();
+  if (t2m::text::split_words(a.prompt).empty()) throw Error("generate: the prompt is empty");
   auto models = t2m::text2bfm::load_text2bfm(t2m::text2bfm::PipelinePaths::in_dir(a.checkpoints));
   for (const auto& w : models.warnings) std::fprintf(stderr, "generate: warning: %s\n", w.c_str());
   auto g = t2m::text2bfm::generate_motion(models, a.prompt, a.opt);
