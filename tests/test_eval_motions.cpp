@@ -15,6 +15,8 @@
 #include "models/eval/evaluate_motions.h"
 #include "models/eval/evaluator.h"
 #include "models/eval/motion_dir.h"
+#include "sim/bvh.h"
+#include "sim/skeleton.h"
 #include "tensor/rng.h"
 #include "test_tensor_util.h"
 
@@ -271,4 +273,17 @@ TEST(EvalMotionsCommand, SyntheticDirectoryAndBadInput) {
             1);
   EXPECT_NE(read(w / "bad3.log").find("not both"), std::string::npos) << read(w / "bad3.log");
   EXPECT_FALSE(fs::exists(none));
+}
+
+TEST(MotionDir, BvhEntryGivesTheClipFeatures) {
+  const fs::path d = temp_dir("bvh");
+  const std::string src = std::string(T2M_SOURCE_DIR) + "/tests/fixtures/bvh/bandai_walk_60.bvh";
+  fs::copy_file(src, d / "walk.bvh");
+  write_text(d / "motions.json",
+             R"({"format": "t2m-motions-1", "motions": [{"file": "walk.bvh", "caption": "a person walks"}]})");
+  const auto md = eval::load_motion_dir(d.string());
+  ASSERT_EQ(md.entries.size(), 1u);
+  const auto want = data::motion_to_features(sim::motion_from_bvh(sim::read_bvh(src)));
+  EXPECT_EQ(md.entries[0].frames, (int64_t)(want.size() / F));
+  EXPECT_EQ(md.entries[0].features, want);
 }
