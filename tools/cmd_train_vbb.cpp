@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
 
 #include "autograd/no_grad.h"
@@ -154,7 +155,7 @@ void run_train_vbb(TrainVbbArgs a, const std::string& cmdline) {
       rec["val_latent_mse"] = v.latent_mse;
       rec["val_action_kl"] = v.action_kl;
     }
-    if (step % a.log_every == 0 || rec.contains("val_latent_mse")) log.write(rec);
+    if (step % a.log_every == 0 || step == stop || rec.contains("val_latent_mse")) log.write(rec);
     bar.update(step, {{"loss", s.total}, {"mse", s.latent_mse}, {"akl", s.action_kl}, {"sem", s.sem}});
     if (step % a.save_every == 0 || step == stop) tr.save(state);
   }
@@ -235,7 +236,18 @@ void add_train_vbb(CLI::App& app) {
   c->add_option("--log-every", a.log_every, "steps between log lines")->capture_default_str();
   c->add_option("--eval-every", a.eval_every, "steps between val scores in the log (0 = only at the end)");
   c->add_option("--threads", a.threads, "threads (0 = default); results are deterministic per thread count");
-  c->callback([c] { run_train_vbb(a, "t2m train vbb " + c->config_to_str(false, false)); });
+  c->callback([c] {
+    std::string cmd = "t2m train vbb";  // config_to_str gives "name=value" lines
+    std::istringstream lines(c->config_to_str(false, false));
+    for (std::string l; std::getline(lines, l);) {
+      const auto eq = l.find('=');
+      if (eq == std::string::npos) continue;
+      std::string v = l.substr(eq + 1);
+      if (v.size() >= 2 && v.front() == '"' && v.back() == '"') v = v.substr(1, v.size() - 2);
+      cmd += " --" + l.substr(0, eq) + (v == "true" ? "" : " " + v);
+    }
+    run_train_vbb(a, cmd);
+  });
 }
 
 }  // namespace
