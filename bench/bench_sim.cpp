@@ -22,16 +22,11 @@
 #include <ctime>
 #include <vector>
 
+#include "bench/lib/step_timer.h"
 #include "sim/env.h"
 #include "tensor/parallel.h"
 
 using namespace t2m::sim;
-
-static double process_cpu_s() {
-  timespec ts;
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return ts.tv_sec + 1e-9 * ts.tv_nsec;
-}
 
 static void BM_HumanoidControlStep(benchmark::State& state) {
   const int threads = (int)state.range(0), variant = (int)state.range(1);
@@ -51,7 +46,7 @@ static void BM_HumanoidControlStep(benchmark::State& state) {
   long steps = 0, t = 0;
   constexpr int kCycle = 60;  // reset period (2 s)
   for (int i = 0; i < N; ++i) venv.env(i).reset(nullptr, nullptr, nullptr);
-  const double cpu0 = process_cpu_s();
+  const double cpu0 = t2m::bench::process_cpu_seconds();
   for (auto _ : state) {
     const int c = (int)(t % kCycle);
     if (c == 0)
@@ -66,7 +61,7 @@ static void BM_HumanoidControlStep(benchmark::State& state) {
 
   // CPU seconds of all threads per control step: the cost that scales with cores on an idle machine
   // (wall-clock items_per_second is what a loaded, shared machine gives).
-  state.counters["cpu_us_per_step"] = 1e6 * (process_cpu_s() - cpu0) / std::max(1L, steps);
+  state.counters["cpu_us_per_step"] = 1e6 * (t2m::bench::process_cpu_seconds() - cpu0) / std::max(1L, steps);
   state.counters["idle_cores_steps_per_s"] = threads * 1e6 / std::max(1e-9, state.counters["cpu_us_per_step"].value);
   double load[1] = {0};
   if (getloadavg(load, 1) == 1) state.counters["load1"] = load[0];

@@ -10,11 +10,10 @@
 // Usage: build-X/bench_train_fb [--benchmark_filter=w256] [--benchmark_format=json]
 #include <benchmark/benchmark.h>
 
-#include <chrono>
 #include <cmath>
-#include <ctime>
 #include <string>
 
+#include "bench/lib/step_timer.h"
 #include "models/bfm/fb_agent.h"
 #include "tensor/ops.h"
 #include "tensor/parallel.h"
@@ -25,7 +24,6 @@ namespace {
 using namespace t2m;
 
 constexpr int kObs = 358, kAct = 69, kZ = 256, kBHidden = 256;
-constexpr double kPeakPerCore = 220.0;
 
 enum Part { kFb = 0, kActor = 1, kBoth = 2 };
 const char* part_name(int p) { return p == kFb ? "fb" : p == kActor ? "actor" : "both"; }
@@ -42,12 +40,6 @@ double step_flops(double h, double N, int part) {
   if (part != kActor) f += Am + 2 * Fm + Bm + bmm + 3 * (2 * Fm + Bm + bmm + 2 * N * N * d);
   if (part != kFb) f += 3 * (Am + 2 * Fm);
   return f;
-}
-
-double process_cpu_seconds() {
-  timespec ts;
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return ts.tv_sec + 1e-9 * ts.tv_nsec;
 }
 
 // The anchor's sample_z: where(rand < 0.5, B(next_obs[randperm]), sqrt(d) normalize(randn)).
@@ -82,18 +74,7 @@ void BM_train_fb(benchmark::State& st, int width, int batch, int part) {
     else if (part == kActor) agent.update_actor(b, gen);
     else agent.update(b, gen);
   };
-  for (int i = 0; i < 2; ++i) step();  // warm-up: the allocator's caches are filled
-  const auto t0 = std::chrono::steady_clock::now();
-  const double c0 = process_cpu_seconds();
-  for (auto _ : st) step();
-  const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  const double cpu = process_cpu_seconds() - c0, it = (double)st.iterations();
-  const double gf = step_flops(width, batch, part) * it / sec * 1e-9;
-  st.counters["ms"] = sec / it * 1e3;
-  st.counters["cpu_ms"] = cpu / it * 1e3;
-  st.counters["GFLOP/s"] = gf;
-  st.counters["%peak"] = 100 * gf / (kPeakPerCore * get_num_threads());
-  st.counters["threads"] = get_num_threads();
+  bench::time_steps(st, step, step_flops(width, batch, part), /*warmup=*/2);  // 2: the allocator's caches fill
 }
 
 }  // namespace

@@ -11,9 +11,7 @@
 // Run: build-NAME/bench_train_fm --benchmark_min_time=2   (threads: OMP_NUM_THREADS, default 2 on this VM).
 #include <benchmark/benchmark.h>
 
-#include <chrono>
-#include <ctime>
-
+#include "bench/lib/step_timer.h"
 #include "models/text2bfm/generator.h"
 #include "tensor/fused/attention.h"
 #include "nn/loss_flow.h"
@@ -27,12 +25,6 @@ using namespace t2m::text2bfm;
 namespace {
 
 constexpr int64_t kTextLen = 24;
-
-double process_cpu_seconds() {
-  timespec ts;
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 // Forward FLOPs of the anchor FlowTransformer as torch_ref counts them: 2 * rows * in * out per Linear, plus
 // 2 * (QK^T + PV) products per attention (4 * B * Tq * Tk * D).
@@ -73,17 +65,7 @@ void BM_train_fm(benchmark::State& st, const std::string& name) {
     opt.step();
     return loss.item();
   };
-  step();  // warm-up: scratch buffers, allocator caches, optimizer state
-  const double cpu0 = process_cpu_seconds();
-  const auto t0 = std::chrono::steady_clock::now();
-  for (auto _ : st) benchmark::DoNotOptimize(step());
-  const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  const double it = (double)st.iterations(), flops = 3.0 * fm_forward_flops(cfg, B, Tm, kTextLen);
-  st.counters["ms"] = sec / it * 1e3;
-  st.counters["cpu_ms"] = (process_cpu_seconds() - cpu0) / it * 1e3;
-  st.counters["GFLOP/s"] = flops * it / sec * 1e-9;
-  st.counters["%peak"] = 100.0 * flops * it / sec * 1e-9 / (220.0 * get_num_threads());
-  st.counters["threads"] = get_num_threads();
+  bench::time_steps(st, [&] { benchmark::DoNotOptimize(step()); }, 3.0 * fm_forward_flops(cfg, B, Tm, kTextLen));
   st.counters["params_M"] = (double)model.num_parameters() * 1e-6;
 }
 
@@ -104,17 +86,8 @@ void BM_fm_attention(benchmark::State& st, const char* path) {
     fused::attention_backward<float>(dq.data<float>(), dk.data<float>(), dv.data<float>(), g.data<float>(),
                                      att.data<float>(), q.data<float>(), k.data<float>(), v.data<float>(), s);
   };
-  run();
-  const double cpu0 = process_cpu_seconds();
-  const auto t0 = std::chrono::steady_clock::now();
-  for (auto _ : st) run();
-  const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  const double it = (double)st.iterations(), flops = 3.0 * fused::attention_forward_flops(s);
+  bench::time_steps(st, run, 3.0 * fused::attention_forward_flops(s));
   fused::attention_force_path("auto");
-  st.counters["ms"] = sec / it * 1e3;
-  st.counters["cpu_ms"] = (process_cpu_seconds() - cpu0) / it * 1e3;
-  st.counters["GFLOP/s"] = flops * it / sec * 1e-9;
-  st.counters["threads"] = get_num_threads();
 }
 
 }  // namespace

@@ -8,10 +8,9 @@
 // Run: build-NAME/bench_train_vae --benchmark_min_time=2   (threads: OMP_NUM_THREADS, default 2 on this VM).
 #include <benchmark/benchmark.h>
 
-#include <chrono>
-#include <ctime>
 
 #include "autograd/ops_elementwise.h"
+#include "bench/lib/step_timer.h"
 #include "models/text2bfm/vbb.h"
 #include "models/text2bfm/vbb_loss.h"
 #include "nn/loss_regression.h"
@@ -23,12 +22,6 @@ using namespace t2m;
 using namespace t2m::text2bfm;
 
 namespace {
-
-double process_cpu_seconds() {
-  timespec ts;
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 // Forward conv FLOPs of the anchor MotionVAE on (B, T, in_dim), as torch_ref's conv hook counts them
 // (2 * out.numel() * Cin * K per conv); a training step counts 3x.
@@ -70,17 +63,7 @@ void BM_train_vae(benchmark::State& st) {
     opt.step();
     return loss.item();
   };
-  step();  // warm-up: scratch buffers, allocator caches, optimizer state
-  const double cpu0 = process_cpu_seconds();
-  const auto t0 = std::chrono::steady_clock::now();
-  for (auto _ : st) benchmark::DoNotOptimize(step());
-  const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  const double it = (double)st.iterations(), flops = 3.0 * vae_forward_flops(cfg, B, T);
-  st.counters["ms"] = sec / it * 1e3;
-  st.counters["cpu_ms"] = (process_cpu_seconds() - cpu0) / it * 1e3;
-  st.counters["GFLOP/s"] = flops * it / sec * 1e-9;
-  st.counters["%peak"] = 100.0 * flops * it / sec * 1e-9 / (220.0 * get_num_threads());
-  st.counters["threads"] = get_num_threads();
+  bench::time_steps(st, [&] { benchmark::DoNotOptimize(step()); }, 3.0 * vae_forward_flops(cfg, B, T));
   st.counters["params_M"] = (double)vbb.num_parameters() * 1e-6;
 }
 

@@ -1,5 +1,6 @@
 // gemm_bench.cpp — shapes, operands and the timing loop behind `t2m bench` and bench_gemm.
 #include "bench/lib/gemm_bench.h"
+#include "bench/lib/step_timer.h"
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -102,12 +103,6 @@ void GemmOperands::run_eigen() {
 void set_eigen_threads(int n) { Eigen::setNbThreads(n); }
 
 namespace {
-
-double process_cpu_seconds() {
-  timespec ts{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
-}
 
 template <typename F>
 GemmTiming time_loop(const GemmShape& s, int threads, int reps, int warmup, F&& fn) {
