@@ -1,5 +1,5 @@
-// test_vbb.cpp — the VBB model (models/text2bfm/vbb.h): shapes and parameter counts for compression 4/8/16 (counts
-// equal the anchor MotionVAE's, printed by torch), the torch name map, causality of encoder and decoder, dropout
+// test_vbb.cpp — the VBB model (models/text2bfm/vbb.h): shapes and parameter counts for compression 1/4/8/16 (counts
+// for 4/8/16 equal the anchor MotionVAE's, printed by torch), the torch name map, causality of encoder and decoder, dropout
 // only in train mode, a float64 finite-difference check of every parameter and the input on a tiny config, a
 // tiny-batch overfit, and bad configs / inputs.
 #include <gtest/gtest.h>
@@ -49,9 +49,11 @@ VbbConfig tiny(int64_t levels = 1) {
 
 TEST(Vbb, ShapesAndParameterCountsForEveryCompression) {
   // Anchor MotionVAE(in_dim=64, levels=L) parameter counts, from torch (sum of numel over parameters()).
-  const int64_t want[3] = {4489120, 6530464, 8571808};
+  // Compression 1 ("no compression", zero stride-2 levels): one level adds 6530464 − 4489120 = 2041344 parameters
+  // (a stride-2 conv and a residual stack in each of encoder and decoder), so 4489120 − 2 · 2041344 = 406432.
+  const int64_t want[4] = {406432, 4489120, 6530464, 8571808};
   int i = 0;
-  for (int64_t c : {4, 8, 16}) {
+  for (int64_t c : {1, 4, 8, 16}) {
     Generator g(1);
     VbbConfig cfg = VbbConfig::with_compression(c, 64);
     EXPECT_EQ(cfg.compression(), c);
@@ -94,44 +96,48 @@ TEST(Vbb, ParameterNamesMapToTorch) {
 // <= t / c only. With residual blocks (next test) GroupNorm's statistics pool over the whole time axis, exactly as
 // torch's nn.GroupNorm in the anchor, so every output depends slightly on every frame.
 TEST(Vbb, ConvolutionPathIsCausal) {
-  Generator g(3);
-  VbbConfig cfg = VbbConfig::with_compression(8, 16);
-  cfg.width = 64;
-  cfg.depth = 0;
-  Vbb vbb(cfg, g);
-  vbb.eval();
-  ag::NoGradGuard ng;
-  const int64_t Tz = 64, c = 8;
-  Tensor z = randn({1, Tz, 16}, 4);
-  VbbPosterior a = vbb.encode(ag::Variable(z), g);
-  for (int64_t t0 : {8, 21, 40, 63}) {
-    Tensor z2 = z.clone();
-    z2.slice(1, t0, Tz).copy_(randn({1, Tz - t0, 16}, 5 + t0));
-    VbbPosterior b = vbb.encode(ag::Variable(z2), g);
-    for (int64_t j = 0; j < Tz / c; ++j) {
-      const double d = max_abs_diff(a.mu.data().slice(2, j, j + 1), b.mu.data().slice(2, j, j + 1)) +
-                       max_abs_diff(a.logvar.data().slice(2, j, j + 1), b.logvar.data().slice(2, j, j + 1));
-      if ((j + 1) * c <= t0) {
-        EXPECT_EQ(d, 0.0) << "program frame " << j << " saw input frame " << t0;
-      } else if (j == t0 / c) {
-        EXPECT_GT(d, 0.0) << "program frame " << j << " ignores input frame " << t0;
+  for (int64_t c : {1, 4, 8, 16}) {
+    SCOPED_TRACE("compression " + std::to_string(c));
+    Generator g(3);
+    VbbConfig cfg = VbbConfig::with_compression(c, 16);
+    cfg.width = 64;
+    cfg.depth = 0;
+    Vbb vbb(cfg, g);
+    vbb.eval();
+    ag::NoGradGuard ng;
+    const int64_t Tz = 64;
+    Tensor z = randn({1, Tz, 16}, 4);
+    VbbPosterior a = vbb.encode(ag::Variable(z), g);
+    for (int64_t t0 : {8, 21, 40, 63}) {
+      Tensor z2 = z.clone();
+      z2.slice(1, t0, Tz).copy_(randn({1, Tz - t0, 16}, 5 + t0));
+      VbbPosterior b = vbb.encode(ag::Variable(z2), g);
+      for (int64_t j = 0; j < Tz / c; ++j) {
+        const double d = max_abs_diff(a.mu.data().slice(2, j, j + 1), b.mu.data().slice(2, j, j + 1)) +
+                         max_abs_diff(a.logvar.data().slice(2, j, j + 1), b.logvar.data().slice(2, j, j + 1));
+        if ((j + 1) * c <= t0) {
+          EXPECT_EQ(d, 0.0) << "program frame " << j << " saw input frame " << t0;
+        } else if (j == t0 / c) {
+          EXPECT_GT(d, 0.0) << "program frame " << j << " ignores input frame " << t0;
+        }
       }
     }
-  }
-  const int64_t Tm = Tz / c;
-  Tensor m = randn({1, 48, Tm}, 7);
-  Tensor za = vbb.decode(ag::Variable(m), g).data();
-  EXPECT_EQ(za.shape(), (Shape{1, Tz, 16}));
-  for (int64_t j0 : {1, 3, 7}) {
-    Tensor m2 = m.clone();
-    m2.slice(2, j0, j0 + 1).copy_(randn({1, 48, 1}, 8 + j0));
-    Tensor zb = vbb.decode(ag::Variable(m2), g).data();
-    for (int64_t t = 0; t < Tz; ++t) {
-      const double d = max_abs_diff(za.slice(1, t, t + 1), zb.slice(1, t, t + 1));
-      if (t < j0 * c) {
-        EXPECT_EQ(d, 0.0) << "frame " << t << " saw program frame " << j0;
-      } else if (t == j0 * c) {
-        EXPECT_GT(d, 0.0);
+    const int64_t Tm = Tz / c;
+    Tensor m = randn({1, 48, Tm}, 7);
+    Tensor za = vbb.decode(ag::Variable(m), g).data();
+    EXPECT_EQ(za.shape(), (Shape{1, Tz, 16}));
+    for (int64_t j0 : {1, 3, 7}) {
+      if (j0 >= Tm) continue;
+      Tensor m2 = m.clone();
+      m2.slice(2, j0, j0 + 1).copy_(randn({1, 48, 1}, 8 + j0));
+      Tensor zb = vbb.decode(ag::Variable(m2), g).data();
+      for (int64_t t = 0; t < Tz; ++t) {
+        const double d = max_abs_diff(za.slice(1, t, t + 1), zb.slice(1, t, t + 1));
+        if (t < j0 * c) {
+          EXPECT_EQ(d, 0.0) << "frame " << t << " saw program frame " << j0;
+        } else if (t == j0 * c) {
+          EXPECT_GT(d, 0.0);
+        }
       }
     }
   }
@@ -248,15 +254,18 @@ TEST(Vbb, BadConfigsAndInputs) {
   c.groups = 3;
   expect_error([&] { Vbb v(c, g); }, {"vbb:", "width 4", "groups 3"});
   c = tiny();
-  c.levels = 0;
-  expect_error([&] { Vbb v(c, g); }, {"vbb:", "levels"});
+  c.levels = -1;
+  expect_error([&] { Vbb v(c, g); }, {"vbb:", "levels", "0..6"});
+  c.levels = 7;
+  expect_error([&] { Vbb v(c, g); }, {"vbb:", "levels", "0..6"});
   c = tiny();
   c.dropout = 1.0;
   expect_error([&] { Vbb v(c, g); }, {"vbb:", "dropout"});
   c = tiny();
   c.latent = 0;
   expect_error([&] { Vbb v(c, g); }, {"vbb:", "latent"});
-  expect_error([&] { VbbConfig::with_compression(6); }, {"vbb:", "4, 8 or 16", "6"});
+  expect_error([&] { VbbConfig::with_compression(6); }, {"vbb:", "1, 4, 8 or 16", "6"});
+  expect_error([&] { VbbConfig::with_compression(2); }, {"vbb:", "1, 4, 8 or 16", "2"});
   Vbb v(tiny(2), g);
   expect_error([&] { v.encode(ag::Variable(randn({2, 8, 5}, 1)), g); }, {"vbb:", "z must be", "[2, 8, 5]"});
   expect_error([&] { v.encode(ag::Variable(randn({8, 3}, 1)), g); }, {"vbb:", "z must be"});

@@ -1,7 +1,7 @@
 // cmd_train_vbb.cpp — `t2m train vbb`: the variational behavioral bottleneck (Text2BFM Eq 13) on the cached Eq 2
 // policy latents of the train split, in resumable chunks; scores on the val and test splits (Table 4 columns).
 //   t2m train vbb [--out DIR] [--bfm POLICY] [--text TEXT_CKPT] [--steps N] [--stop-at N] [--resume] [--lr X]
-//                 [--compression 4|8|16] [--lambda-sem X] [--ship PATH] [--avg-pool] ...
+//                 [--compression 1|4|8|16] [--lambda-sem X] [--ship PATH] [--avg-pool] ...
 // Latents: ~/.cache/t2m/latents/<split>.t2mckpt (models/text2bfm/latent_cache.h), rebuilt when the BFM file's
 // checksum changes. DIR (default ~/.cache/t2m/vbb/default): train_state.t2mckpt, log.jsonl, loss.svg, vbb.t2mckpt,
 // summary.json. --avg-pool scores the average-pooling row instead of training. See docs/VBB.md.
@@ -80,8 +80,8 @@ void print_row(const char* split, const tb::VbbEvalResult& r) {
 void run_train_vbb(TrainVbbArgs a, const std::string& cmdline) {
   const auto t_start = clock_type::now();
   if (a.threads > 0) t2m::set_num_threads(a.threads);
-  if (a.compression != 4 && a.compression != 8 && a.compression != 16)
-    throw Error("train vbb: --compression must be 4, 8 or 16, got " + std::to_string(a.compression));
+  if (a.compression != 1 && a.compression != 4 && a.compression != 8 && a.compression != 16)
+    throw Error("train vbb: --compression must be 1, 4, 8 or 16, got " + std::to_string(a.compression));
   const int64_t in_dim = a.cfg.vbb.in_dim;
   {
     const tb::VbbConfig c = tb::VbbConfig::with_compression(a.compression, in_dim);
@@ -223,7 +223,7 @@ void add_train_vbb(CLI::App& app) {
   c->add_option("--weight-decay", cfg.weight_decay, "AdamW weight decay")->capture_default_str();
   c->add_option("--warmup", cfg.warmup, "linear warm-up steps")->capture_default_str();
   c->add_option("--seed", cfg.seed, "seed (init, batches, dropout, eps)")->capture_default_str();
-  c->add_option("--compression", a.compression, "4, 8 or 16")->capture_default_str();
+  c->add_option("--compression", a.compression, "1 (no compression), 4, 8 or 16")->capture_default_str();
   c->add_option("--width", cfg.vbb.width, "conv width")->capture_default_str();
   c->add_option("--depth", cfg.vbb.depth, "residual blocks per level")->capture_default_str();
   c->add_option("--latent", cfg.vbb.latent, "program channels")->capture_default_str();

@@ -31,7 +31,7 @@ void VbbConfig::validate() const {
   if (depth < 0) fail("depth must be >= 0, got " + std::to_string(depth));
   pos("growth", growth);
   pos("groups", groups);
-  if (levels < 1 || levels > 6) fail("levels must be in 1..6, got " + std::to_string(levels));
+  if (levels < 0 || levels > 6) fail("levels must be in 0..6, got " + std::to_string(levels));
   if (width % groups != 0)
     fail("width " + std::to_string(width) + " is not divisible by groups " + std::to_string(groups));
   if (!(dropout >= 0.0 && dropout < 1.0)) fail("dropout must be in [0, 1), got " + std::to_string(dropout));
@@ -40,10 +40,11 @@ void VbbConfig::validate() const {
 VbbConfig VbbConfig::with_compression(int64_t factor, int64_t in_dim) {
   VbbConfig c;
   c.in_dim = in_dim;
-  if (factor == 4) c.levels = 2;
+  if (factor == 1) c.levels = 0;
+  else if (factor == 4) c.levels = 2;
   else if (factor == 8) c.levels = 3;
   else if (factor == 16) c.levels = 4;
-  else fail("compression must be 4, 8 or 16, got " + std::to_string(factor));
+  else fail("compression must be 1, 4, 8 or 16, got " + std::to_string(factor));
   c.validate();
   return c;
 }

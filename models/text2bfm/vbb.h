@@ -18,7 +18,8 @@
 // Parameters are drawn from the Generator in torch's construction order (enc then dec, front to back).
 //
 // Shapes: z (B, Tz, in_dim) time-major like the anchor's input; mu, logvar, m (B, latent, Tm) channel-first like
-// the anchor's chunk; ẑ (B, Tz, in_dim). Tm = Tz / 2^L (compression 4/8/16 for L = 2/3/4); Tz must be a
+// the anchor's chunk; ẑ (B, Tz, in_dim). Tm = Tz / 2^L (compression 1/4/8/16 for L = 0/2/3/4; L = 0 is the
+// "no compression" ablation of Table 3: no stride-2 level, no upsampling, Tm = Tz); Tz must be a
 // positive multiple of 2^L (padding shorter clips is the caller's job, with frame masks in the losses).
 // Causality: through the convolutions (replicate-left padding, strides, upsampling) encoder output frame j
 // depends only on input frames < (j+1)·2^L and decoder frame t only on program frames <= t / 2^L. GroupNorm, as in
@@ -27,7 +28,7 @@
 // its receptive field, not strictly causal (depth 0, no residual blocks, is strictly causal).
 // Dropout (p = config.dropout) acts in train mode only and draws from the Generator passed to forward; eval()
 // turns it off (parity, inference).
-// Errors (t2m::Error "vbb: ..."): bad config (sizes < 1, depth < 0, width not divisible by groups, levels outside 1..6,
+// Errors (t2m::Error "vbb: ..."): bad config (sizes < 1, depth < 0, width not divisible by groups, levels outside 0..6,
 // dropout outside [0, 1)); z not 3-D, its last dim != in_dim, Tz not a positive multiple of 2^L; m not
 // (B, latent, Tm); eps shape != mu shape.
 #pragma once
@@ -49,7 +50,7 @@ struct VbbConfig {
   int64_t in_dim = 64;   // d, the policy-latent width (the anchor's bench config uses 256)
   int64_t width = 256;   // C
   int64_t latent = 48;   // d_m, channels of the motion program
-  int64_t levels = 3;    // stride-2 levels: compression 2^levels (2/3/4 -> 4/8/16)
+  int64_t levels = 3;    // stride-2 levels: compression 2^levels (0/2/3/4 -> 1/4/8/16)
   int64_t depth = 3;     // residual blocks per level (0 allowed: no residual blocks)
   int64_t growth = 3;    // dilation growth: 1, 3, 9
   int64_t groups = 32;   // GroupNorm groups
@@ -57,7 +58,8 @@ struct VbbConfig {
 
   int64_t compression() const { return int64_t{1} << levels; }
   void validate() const;  // throws Error "vbb: ..." naming the bad field
-  // The paper's VBB at compression factor 4, 8 or 16 (anything else throws) over d = in_dim policy latents.
+  // The paper's VBB at compression factor 1 (no compression), 4, 8 or 16 (anything else throws) over d = in_dim
+  // policy latents.
   static VbbConfig with_compression(int64_t factor, int64_t in_dim = 64);
 };
 
