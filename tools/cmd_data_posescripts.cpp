@@ -1,0 +1,93 @@
+// cmd_data_posescripts.cpp — `t2m data posescripts`: our PoseScript-style set (PRO-Motion posture scripts of the
+// key poses of one split of the Bandai data, models/promotion/posture_script_set.h) for inspection: prints the
+// scripts of the first --limit key poses, optionally the posecode statistics (--stats) and a JSONL file (--out).
+#include <cstdio>
+#include <fstream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "models/promotion/pose.h"
+#include "models/promotion/posecodes.h"
+#include "models/promotion/posture_script_set.h"
+#include "tensor/parallel.h"
+#include "tools/command.h"
+#include "tools/text_data.h"
+
+namespace {
+
+using t2m::Error;
+namespace pm = t2m::promotion;
+
+struct Args {
+  std::string split = "test", out, data_dir, cache_dir;
+  int limit = 5, keys = pm::kDefaultKeyFrames, threads = 0;
+  bool mirror = false, stats = false;
+};
+
+void print_stats(const pm::PostureScriptSet& s) {
+  const auto& rules = pm::posecode_rules();
+  const auto f = pm::posecode_frequencies(s);
+  std::printf("\nposecode statistics over %d key poses (share of poses per category; * = described in scripts)\n",
+              s.size());
+  for (size_t r = 0; r < rules.size(); ++r) {
+    std::printf("  %-18s %-34s", pm::posecode_family_name(rules[r].family), rules[r].name.c_str());
+    for (size_t c = 0; c < f[r].size(); ++c)
+      std::printf(" %s%s %.3f", rules[r].described((int)c) ? "*" : "",
+                  rules[r].categories[c].empty() ? "-" : rules[r].categories[c].c_str(), f[r][c]);
+    std::printf("\n");
+  }
+  double words = 0;
+  for (const auto& t : s.scripts) {
+    int n = 1;
+    for (char ch : t) n += ch == ' ';
+    words += n;
+  }
+  std::printf("mean script length: %.1f words\n", s.size() ? words / s.size() : 0.0);
+}
+
+void run(const Args& a) {
+  if (a.limit < 0) throw Error("data posescripts: --limit must be >= 0, got " + std::to_string(a.limit));
+  if (a.keys < 1) throw Error("data posescripts: --keys must be >= 1, got " + std::to_string(a.keys));
+  if (a.threads > 0) t2m::set_num_threads(a.threads);
+  const auto split = t2m::data::split_from_name(a.split);
+  const auto d = t2m::cli::load_text_data({a.data_dir, a.cache_dir, a.threads});
+  const auto clips = t2m::cli::split_clips(d, split, a.threads);
+  const pm::PostureScriptSet s = pm::build_posture_script_set(clips, a.keys, a.mirror);
+  std::printf("%s split: %zu clips, %d key poses (%d per clip%s); Bandai-Namco, scripts from our posecodes\n",
+              a.split.c_str(), clips.size(), s.size(), a.keys, a.mirror ? ", with mirrors" : "");
+  for (int i = 0; i < std::min(a.limit, s.size()); ++i)
+    std::printf("\n[%s key %d frame %d%s]\n%s\n", clips[s.clip[i]].name.c_str(), s.key[i], s.frame[i],
+                s.mirrored[i] ? " mirrored" : "", s.scripts[i].c_str());
+  if (a.stats) print_stats(s);
+  if (!a.out.empty()) {
+    std::ofstream f(a.out);
+    if (!f) throw Error("data posescripts: cannot write --out " + a.out);
+    for (int i = 0; i < s.size(); ++i)
+      f << nlohmann::json{{"clip", clips[s.clip[i]].name}, {"key", s.key[i]}, {"frame", s.frame[i]},
+                          {"mirrored", (bool)s.mirrored[i]}, {"script", s.scripts[i]}}
+               .dump()
+        << "\n";
+    std::printf("wrote %s\n", a.out.c_str());
+  }
+}
+
+void add(CLI::App& app) {
+  auto* g = t2m::cli::command_group(app, "data", "Motion data set: unpack + manifest, statistics, BVH check");
+  auto a = std::make_shared<Args>();
+  auto* c = g->add_subcommand("posescripts", "PRO-Motion posture scripts of the key poses of one split");
+  c->add_option("--split", a->split, "train, val or test (default test)");
+  c->add_option("--limit", a->limit, "key poses to print (default 5)");
+  c->add_option("--keys", a->keys, "key frames per clip (default 8)");
+  c->add_flag("--mirror", a->mirror, "also the mirrored clips");
+  c->add_flag("--stats", a->stats, "print how often every posecode category fires");
+  c->add_option("--out", a->out, "write every item as JSON lines");
+  c->add_option("--data", a->data_dir, "Data directory (see data prepare)");
+  c->add_option("--cache", a->cache_dir, "Cache directory (see data prepare)");
+  c->add_option("--threads", a->threads, "threads (default: all)");
+  c->callback([a] { run(*a); });
+}
+
+T2M_COMMAND(add);
+
+}  // namespace
