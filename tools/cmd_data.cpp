@@ -98,7 +98,7 @@ void run_check(const DataOptions& o) {
 }
 
 void add_data(CLI::App& app) {
-  auto* data = app.add_subcommand("data", "Motion data set: unpack + manifest, statistics, BVH check");
+  auto* data = t2m::cli::command_group(app, "data", "Motion data set: unpack + manifest, statistics, BVH check");
   data->require_subcommand(1);
   auto opts = std::make_shared<DataOptions>();
   auto* prep = data->add_subcommand("prepare", "Unpack the .tar.zst archives into the cache and build the manifest");
