@@ -1,0 +1,227 @@
+// cmd_eval_text2bfm.cpp — `t2m eval text2bfm`: the text-to-motion table row of a Text2BFM chain (or of the BFM's
+// tracking rollouts, the controller's reference row) on a data split with the `t2m eval motions` protocol.
+//   t2m eval text2bfm --out DIR [--split test] [--checkpoints D] [--gen CKPT] [--vbb CKPT] [--text CKPT]
+//                     [--bfm CKPT] [--cfg 1.5] [--steps N] [--mm-prompts 32] [--samples 10] [--seed 0]
+//                     [--max-clips N] [--runs 20] [--threads T] [--tracking]
+// For every clip of the split (sorted by name; --max-clips N: N spread evenly) the caption the real-motion row uses
+// (make_caption(labels, seed 7, index 0)) is generated at the clip's length with the chain (no render), the
+// simulated states s_1..s_T become raw features (models/text2bfm/eval_generation.h), DIR gets a motions directory
+// (motions.json + .npy, docs/TEXT.md) with --samples samples of --mm-prompts prompts for MultiModality, and the
+// evaluator scores it (models/eval/evaluate_motions.h, FID against the split's real clips) into DIR/eval.json.
+// --tracking: instead of generating, the BFM tracks each real clip from its reference start with its Eq 2 latents
+// (models/bfm/track_eval.h); the rollouts are scored the same way (no MultiModality).
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <string>
+
+#include "models/bfm/policy_checkpoint.h"
+#include "models/bfm/ref_motions.h"
+#include "models/bfm/track_eval.h"
+#include "models/data/captions.h"
+#include "models/eval/evaluate_motions.h"
+#include "models/eval/evaluator.h"
+#include "models/eval/motion_dir_write.h"
+#include "models/text2bfm/eval_generation.h"
+#include "nn/checkpoint.h"
+#include "nn/progress.h"
+#include "tensor/parallel.h"
+#include "tools/command.h"
+#include "tools/text_data.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+using t2m::Error;
+namespace t2b = t2m::text2bfm;
+
+constexpr uint64_t kRealCaptionSeed = 7;  // the real-motion row's captions (tools/cmd_eval_motions.cpp)
+
+struct Args {
+  t2m::cli::TextDataOptions data;
+  std::string out, split = "test", checkpoints = "models/checkpoints", gen, vbb, text, bfm;
+  std::string evaluator = "models/checkpoints/evaluator.t2mckpt", label;
+  t2b::EvalGenOptions opt;
+  int max_clips = 0;
+  bool tracking = false;
+  t2m::eval::EvalProtocol protocol;
+};
+
+std::string fmt_ci(const t2m::eval::MeanCI& v) {
+  char b[64];
+  std::snprintf(b, sizeof b, "%.3f ± %.3f", v.mean, v.ci95);
+  return b;
+}
+
+void run(Args a) {
+  if (a.data.threads < 0) throw Error("eval text2bfm: --threads must be >= 0");
+  if (a.protocol.runs < 1) throw Error("eval text2bfm: --runs must be >= 1");
+  if (a.max_clips < 0) throw Error("eval text2bfm: --max-clips must be >= 0");
+  const int threads = a.data.threads > 0 ? a.data.threads : t2m::get_num_threads();
+  if (!fs::exists(a.evaluator))
+    throw Error("eval text2bfm: evaluator checkpoint '" + a.evaluator + "' not found (t2m train evaluator)");
+  const auto split = t2m::data::split_from_name(a.split);
+  auto td = t2m::cli::load_text_data(a.data);
+  std::vector<t2m::data::MotionClip> clips = t2m::cli::split_clips(td, split, threads);
+  if (clips.empty()) throw Error("eval text2bfm: the " + a.split + " split has no clips");
+  std::sort(clips.begin(), clips.end(), [](const auto& x, const auto& y) { return x.name < y.name; });
+  std::vector<int> pick;
+  const int n_all = (int)clips.size();
+  const int n = a.max_clips > 0 && a.max_clips < n_all ? a.max_clips : n_all;
+  for (int k = 0; k < n; ++k) pick.push_back(int((int64_t)k * n_all / n));
+
+  std::vector<t2m::eval::MotionEntry> entries;
+  json stats;
+  std::string what;
+  const auto tp0 = std::chrono::steady_clock::now();
+  if (a.tracking) {
+    // The controller's share: the BFM tracking the real clips with their Eq 2 latents, from the reference start.
+    const std::string bfm_p = a.bfm.empty() ? a.checkpoints + "/bfm_small.t2mckpt" : a.bfm;
+    if (!fs::exists(bfm_p)) throw Error("eval text2bfm: missing BFM " + bfm_p + " (t2m train bfm)");
+    auto agent = t2m::bfm::load_policy(bfm_p);
+    auto h = t2m::sim::Humanoid::create();
+    t2m::set_num_threads(threads);
+    const auto refs = t2m::bfm::load_ref_motions(*h, td.manifest, split, 0);
+    std::map<std::string, const t2m::data::MotionClip*> by_name;
+    for (int i : pick) by_name[clips[i].name] = &clips[i];
+    t2m::bfm::RefMotions sel;
+    sel.obs_dim = refs.obs_dim, sel.nq = refs.nq, sel.nv = refs.nv;
+    for (int c = 0; c < refs.clips(); ++c)
+      if (by_name.count(refs.names[c])) sel.add(*h, refs.names[c], refs.trajectory(c));
+    if (sel.clips() == 0) throw Error("eval text2bfm: no reference clip of the split matched the data clips");
+    const auto res = t2m::bfm::track_bfm(*agent, h, sel);
+    int fell = 0;
+    for (int c = 0; c < sel.clips(); ++c) {
+      const auto* clip = by_name.at(sel.names[c]);
+      t2m::eval::MotionEntry e;
+      e.caption = t2m::data::make_caption(clip->content, clip->style, kRealCaptionSeed, 0).text;
+      char f[32];
+      std::snprintf(f, sizeof f, "%04d.npy", c);
+      e.file = f;
+      e.features = t2b::trajectory_features(*h, res[c].simulated, 0);
+      e.frames = (int64_t)e.features.size() / 257;
+      fell += res[c].fell ? 1 : 0;
+      entries.push_back(std::move(e));
+    }
+    stats = {{"clips", sel.clips()}, {"fell", fell}, {"bfm", bfm_p}};
+    what = "BFM tracking rollouts (Eq 2 latents of the real clips, reference start) of the " + a.split +
+           " split, " + bfm_p;
+  } else {
+    auto paths = t2b::PipelinePaths::in_dir(a.checkpoints);
+    if (!a.gen.empty()) paths.gen = a.gen;
+    if (!a.vbb.empty()) paths.vbb = a.vbb;
+    if (!a.text.empty()) paths.text = a.text;
+    if (!a.bfm.empty()) paths.bfm = a.bfm;
+    auto models = t2b::load_text2bfm(paths);
+    for (const auto& w : models.warnings) std::fprintf(stderr, "eval text2bfm: warning: %s\n", w.c_str());
+    std::vector<t2b::EvalItem> items;
+    for (int i : pick)
+      items.push_back({t2m::data::make_caption(clips[i].content, clips[i].style, kRealCaptionSeed, 0).text,
+                       (int64_t)clips[i].frames});
+    a.opt.mm_prompts = std::min<int64_t>(a.opt.mm_prompts, (int64_t)items.size());
+    a.opt.jobs = threads;
+    t2m::set_num_threads(1);  // one generation per thread
+    const int64_t total = (int64_t)items.size() + a.opt.mm_prompts * (a.opt.samples - 1);
+    t2m::nn::Progress bar(total, "eval text2bfm: generate");
+    auto r = t2b::generate_eval_motions(models, items, a.opt, [&](int64_t done, int64_t) { bar.update(done); });
+    bar.finish();
+    t2m::set_num_threads(threads);
+    entries = std::move(r.entries);
+    const auto& s = r.stats;
+    stats = {{"generations", s.generations}, {"control_steps", s.control_steps}, {"jobs", threads},
+             {"wall_s", s.wall_s}, {"cpu_s", s.cpu_s}, {"stage_wall_s_summed",
+             {{"text", s.text_s}, {"sample", s.sample_s}, {"decode", s.decode_s}, {"rollout", s.rollout_s}}},
+             {"fell", s.fell}, {"mean_first_fall_s", s.mean_first_fall_s},
+             {"checkpoints", {{"text", paths.text}, {"vbb", paths.vbb}, {"gen", paths.gen}, {"bfm", paths.bfm}}},
+             {"cfg", a.opt.gen.cfg}, {"steps", a.opt.gen.steps}, {"seed", a.opt.seed},
+             {"mm_prompts", a.opt.mm_prompts}, {"samples", a.opt.samples}};
+    what = "Text2BFM generations (" + paths.gen + ", cfg " + std::to_string(a.opt.gen.cfg) + ", " +
+           std::to_string(a.opt.gen.steps) + " steps) for the captions of the " + a.split + " split";
+    std::printf("generated %lld motions (%lld control steps) in %.1f s wall, %.1f s CPU, %d thread(s); %lld fell "
+                "(mean first fall %.2f s)\n", (long long)s.generations, (long long)s.control_steps, s.wall_s,
+                s.cpu_s, threads, (long long)s.fell, s.mean_first_fall_s);
+  }
+  const double produce_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - tp0).count();
+  const json provenance = {{"what", what}, {"data", "Bandai-Namco-Research-Motiondataset 1+2 (CC BY-NC 4.0), " +
+                            a.split + " split, captions from its labels (seed 7, index 0)"}, {"stats", stats}};
+  t2m::eval::write_motion_dir(a.out, entries, {{"provenance", provenance}});
+
+  // Score with the evaluator exactly as `t2m eval motions OUT` does (FID reference: the split's real clips).
+  const auto md = t2m::eval::load_motion_dir(a.out);
+  const auto ev = t2m::eval::load_evaluator(a.evaluator);
+  t2m::eval::MotionSet set;
+  for (int64_t i : md.main_set()) {
+    set.captions.push_back(md.entries[i].caption);
+    set.motions.push_back(&md.entries[i].features);
+  }
+  for (const auto& g : md.prompt_groups()) {
+    set.groups.emplace_back();
+    for (int64_t i : g) set.groups.back().push_back(&md.entries[i].features);
+  }
+  std::vector<const std::vector<float>*> ref;
+  for (const auto& c : clips) ref.push_back(&c.features);
+  const t2m::Tensor reference = t2m::text::embed_motions(ev, ref);
+  const auto rep = t2m::eval::evaluate_motions(ev, set, reference, a.protocol);
+  json j = rep.to_json();
+  j["motions"] = what;
+  j["count"] = set.motions.size();
+  j["multimodality_prompts"] = set.groups.size();
+  j["fid_reference"] = "real motions of the " + a.split + " split (" + std::to_string(clips.size()) + " clips)";
+  j["evaluator"] = a.evaluator;
+  j["data"] = provenance["data"];
+  j["stats"] = stats;
+  j["produce_s"] = produce_s;
+  j["resampled_per_run"] = "R-precision batches, shuffled control, Diversity and MultiModality pairs (the motions "
+                           "are generated once)";
+  t2m::nn::write_file_atomic(a.out + "/eval.json", j.dump(1) + "\n");
+
+  std::printf("%s: %zu motions, %d runs (seed %llu); Bandai-Namco, our %s split\n", what.c_str(),
+              set.motions.size(), a.protocol.runs, (unsigned long long)a.protocol.seed, a.split.c_str());
+  for (size_t i = 0; i < rep.names.size(); ++i)
+    std::printf("  %-26s %8.4f +- %.4f\n", rep.names[i].c_str(), rep.values[i].mean, rep.values[i].ci95);
+  const std::string label = a.label.empty() ? (a.tracking ? "BFM tracking (real Eq 2 latents)" : "Text2BFM") : a.label;
+  std::printf("| %s | %s | %s | %s | %s | %s | %s | %s |\n", label.c_str(),
+              fmt_ci(rep.at("r_precision_top1")).c_str(), fmt_ci(rep.at("r_precision_top2")).c_str(),
+              fmt_ci(rep.at("r_precision_top3")).c_str(), fmt_ci(rep.at("fid")).c_str(),
+              fmt_ci(rep.at("mm_dist")).c_str(), fmt_ci(rep.at("diversity")).c_str(),
+              rep.has("multimodality") ? fmt_ci(rep.at("multimodality")).c_str() : "–");
+  std::printf("motions: %s/motions.json  report: %s/eval.json\n", a.out.c_str(), a.out.c_str());
+}
+
+void add_eval_text2bfm(CLI::App& app) {
+  auto* g = t2m::cli::command_group(app, "eval", "evaluate models and motions");
+  auto a = std::make_shared<Args>();
+  auto* c = g->add_subcommand("text2bfm", "generate the split's captions with Text2BFM and score them (table row)");
+  c->add_option("--out", a->out, "motions directory to write (replaced if it exists); eval.json goes inside")
+      ->required();
+  c->add_option("--split", a->split, "data split whose captions and lengths are generated")->capture_default_str();
+  c->add_option("--checkpoints", a->checkpoints, "directory with the four .t2mckpt files")->capture_default_str();
+  c->add_option("--gen", a->gen, "generator checkpoint (default CHECKPOINTS/gen_small.t2mckpt)");
+  c->add_option("--vbb", a->vbb, "VBB checkpoint (default CHECKPOINTS/vbb_small.t2mckpt)");
+  c->add_option("--text", a->text, "text encoder checkpoint (default CHECKPOINTS/text_encoder.t2mckpt)");
+  c->add_option("--bfm", a->bfm, "BFM policy checkpoint (default CHECKPOINTS/bfm_small.t2mckpt)");
+  c->add_option("--evaluator", a->evaluator, "metric evaluator checkpoint")->capture_default_str();
+  c->add_option("--cfg", a->opt.gen.cfg, "classifier-free guidance weight w")->capture_default_str();
+  c->add_option("--steps", a->opt.gen.steps, "sampler steps")->capture_default_str();
+  c->add_option("--seed", a->opt.seed, "seed of the generations (per clip and sample)")->capture_default_str();
+  c->add_option("--mm-prompts", a->opt.mm_prompts, "prompts with extra samples (MultiModality)")
+      ->capture_default_str();
+  c->add_option("--samples", a->opt.samples, "samples per MultiModality prompt")->capture_default_str();
+  c->add_option("--max-clips", a->max_clips, "use N clips spread over the split (0 = all)")->capture_default_str();
+  c->add_option("--runs", a->protocol.runs, "seeded repetitions of the protocol (mean and 95% CI)")
+      ->capture_default_str();
+  c->add_option("--label", a->label, "row label of the printed table line");
+  c->add_flag("--tracking", a->tracking, "score the BFM's tracking rollouts of the real clips instead");
+  c->add_option("--data", a->data.data_dir, "motion data directory");
+  c->add_option("--cache", a->data.cache_dir, "cache directory");
+  c->add_option("--threads", a->data.threads, "threads: generations run in parallel over clips (0 = default)");
+  c->callback([a] { run(*a); });
+}
+
+}  // namespace
+
+T2M_COMMAND(add_eval_text2bfm);
