@@ -8,6 +8,7 @@
 #include <sstream>
 #include <vector>
 
+#include "sim/skeleton.h"
 #include "tensor/tensor.h"
 
 namespace t2m::sim {
@@ -135,6 +136,21 @@ void emit_body(std::ostringstream& x, int j, const HumanoidOptions& opt, int dep
 double humanoid_hips_height() {
   const double ankle = std::min(rest_joint_pos(15)[2], rest_joint_pos(19)[2]);
   return -(ankle - kSoleBelowAnkle);
+}
+
+std::vector<float> humanoid_offsets() {
+  const auto& spec = humanoid_joint_spec();
+  std::vector<float> out(kHumanoidBodies * 3, 0.f);
+  for (int j = 0; j < kHumanoidBodies; ++j) {
+    double o[3] = {0, 0, 0};
+    if (j == 0) {
+      o[2] = humanoid_hips_height();
+    } else {
+      bvh_to_world_vec(spec[j].offset_bvh_cm, o);
+    }
+    for (int k = 0; k < 3; ++k) out[3 * j + k] = float(o[k]);
+  }
+  return out;
 }
 
 std::string humanoid_mjcf(const HumanoidOptions& opt) {

@@ -54,6 +54,8 @@ const std::array<double, 4>& rest_world_rot(int j);
 const std::array<double, 3>& rest_joint_pos(int j);
 // Hips height above the floor in the reference pose with the soles on the floor (metres).
 double humanoid_hips_height();
+// Rest offsets [21, 3] of the canonical Motion (metres, Z up): the bone offsets of the spec, Hips at its height.
+std::vector<float> humanoid_offsets();
 
 struct HumanoidOptions {
   int solver_iterations = 8;        // Newton iterations per physics step

@@ -144,16 +144,7 @@ Motion motion_from_qpos(const Humanoid& h, const QposTrajectory& q) {
   mo.fps = q.fps;
   mo.pos.assign((size_t)q.frames * kNumJoints * 3, 0.f);
   mo.rot.assign((size_t)q.frames * kNumJoints * 4, 0.f);
-  mo.offsets.assign(kNumJoints * 3, 0.f);
-  for (int j = 0; j < kNumJoints; ++j) {
-    double o[3] = {0, 0, 0};
-    if (j == 0) {
-      o[2] = humanoid_hips_height();
-    } else {
-      bvh_to_world_vec(spec[j].offset_bvh_cm, o);
-    }
-    for (int k = 0; k < 3; ++k) mo.offsets[3 * j + k] = float(o[k]);
-  }
+  mo.offsets = humanoid_offsets();
   std::array<Quat, kNumJoints> R, W;
   for (int t = 0; t < q.frames; ++t) {
     const double* qp = q.qpos.data() + (size_t)t * m->nq;

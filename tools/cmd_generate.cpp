@@ -2,14 +2,22 @@
 // `t2m compose "A, then B" --out DIR` (the same with one program per clause, Eq 18-19; = generate --compose).
 // Checkpoints from --checkpoints DIR (default models/checkpoints): text_encoder, vbb_small, gen_small, bfm_small.
 // DIR receives motion.bvh, render.mp4 (unless --no-render), states.bin and metrics.json, all or nothing.
+// `--model NAME` runs a registered kinematic baseline instead (tools/kinematic_models.h; an unknown name lists
+// them): DIR then receives features.npy, motion.bvh, render.mp4 and metrics.json (models/io/kinematic_output.h).
+#include <time.h>
+
+#include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <memory>
 #include <string>
 
+#include "models/io/kinematic_output.h"
 #include "models/text/tokenizer.h"
 #include "models/text2bfm/pipeline.h"
 #include "tensor/parallel.h"
 #include "tools/command.h"
+#include "tools/kinematic_models.h"
 
 namespace {
 
@@ -18,8 +26,10 @@ using t2m::Error;
 struct GenerateArgs {
   std::string prompt, out, checkpoints = "models/checkpoints";
   t2m::text2bfm::GenerateOptions opt;
+  std::string model = "text2bfm";
   bool no_render = false, overwrite = false;
   int threads = 0;
+  CLI::Option *length_opt = nullptr, *cfg_opt = nullptr, *steps_opt = nullptr;
 };
 
 void add_options(CLI::App* c, GenerateArgs& a) {
@@ -27,10 +37,12 @@ void add_options(CLI::App* c, GenerateArgs& a) {
   c->add_option("--out", a.out, "output directory (must not exist or be empty, unless --overwrite)")->required();
   c->add_option("--checkpoints", a.checkpoints, "directory with the four .t2mckpt files")->capture_default_str();
   c->add_option("--seed", a.opt.seed, "seed of m(0) ~ N(0, I)")->capture_default_str();
-  c->add_option("--length", a.opt.length_s, "clip length in seconds (30 control steps per second)")
+  a.length_opt = c->add_option("--length", a.opt.length_s, "clip length in seconds (30 control steps per second)")
+                     ->capture_default_str();
+  a.cfg_opt = c->add_option("--cfg", a.opt.cfg, "classifier-free guidance weight w")->capture_default_str();
+  a.steps_opt = c->add_option("--steps", a.opt.steps, "Euler steps of the flow ODE (Eq 16)")->capture_default_str();
+  c->add_option("--model", a.model, "text2bfm, or a kinematic baseline (an unknown name lists them)")
       ->capture_default_str();
-  c->add_option("--cfg", a.opt.cfg, "classifier-free guidance weight w")->capture_default_str();
-  c->add_option("--steps", a.opt.steps, "Euler steps of the flow ODE (Eq 16)")->capture_default_str();
   c->add_option("--overlap", a.opt.overlap, "compose: latent steps blended per clause boundary (Eq 19)")
       ->capture_default_str();
   c->add_flag("--no-render", a.no_render, "skip render.mp4");
@@ -38,11 +50,59 @@ void add_options(CLI::App* c, GenerateArgs& a) {
   c->add_option("--threads", a.threads, "threads (0 = default)");
 }
 
+double process_cpu_seconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
+}
+
+// A kinematic baseline: the registered model generates features, DIR gets features.npy/BVH/MP4/metrics.
+void run_kinematic(const GenerateArgs& a) {
+  const auto& model = t2m::cli::find_kinematic_model(a.model);
+  if (a.opt.compose) throw Error("generate: --compose applies to --model text2bfm only");
+  t2m::cli::KinematicRequest r;
+  r.prompt = a.prompt;
+  r.checkpoints = a.checkpoints;
+  r.seed = a.opt.seed;
+  if (a.length_opt->count()) {
+    if (!(a.opt.length_s > 0 && a.opt.length_s <= 120)) throw Error("generate: --length must be in (0, 120] s");
+    r.length_s = a.opt.length_s;
+  }
+  if (a.cfg_opt->count()) {
+    if (!std::isfinite(a.opt.cfg) || a.opt.cfg < 0) throw Error("generate: --cfg must be finite and >= 0");
+    r.cfg = a.opt.cfg;
+  }
+  if (a.steps_opt->count()) {
+    if (a.opt.steps < 1) throw Error("generate: --steps must be >= 1");
+    r.steps = a.opt.steps;
+  }
+  t2m::io::KinematicOutput g;
+  g.prompt = a.prompt;
+  g.model = model.name;
+  const auto t0 = std::chrono::steady_clock::now();
+  const double c0 = process_cpu_seconds();
+  auto res = model.generate(r);
+  g.generate_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  g.generate_cpu_s = process_cpu_seconds() - c0;
+  g.features = std::move(res.features);
+  g.info = std::move(res.info);
+  t2m::io::KinematicWriteOptions w;
+  w.render = !a.no_render;
+  w.overwrite = a.overwrite;
+  const auto metrics = t2m::io::write_kinematic_generation(g, t2m::sim::Humanoid::create(), a.out, w);
+  std::printf("%s: model %s, %.2f s (%d frames), generated in %.3f s (%.3f s CPU, %d threads)\n", a.out.c_str(),
+              model.name.c_str(), metrics["duration_s"].get<double>(), metrics["frames"].get<int>(), g.generate_s,
+              g.generate_cpu_s, t2m::get_num_threads());
+  std::printf("  %s/features.npy  %s/motion.bvh%s  %s/metrics.json\n", a.out.c_str(), a.out.c_str(),
+              a.no_render ? "" : ("  " + a.out + "/render.mp4").c_str(), a.out.c_str());
+}
+
 void run(const GenerateArgs& a) {
   if (a.threads < 0) throw Error("generate: --threads must be >= 0");
   if (a.threads > 0) t2m::set_num_threads(a.threads);
-  a.opt.validate();
   if (t2m::text::split_words(a.prompt).empty()) throw Error("generate: the prompt is empty");
+  if (a.model != "text2bfm") return run_kinematic(a);
+  a.opt.validate();
   auto models = t2m::text2bfm::load_text2bfm(t2m::text2bfm::PipelinePaths::in_dir(a.checkpoints));
   for (const auto& w : models.warnings) std::fprintf(stderr, "generate: warning: %s\n", w.c_str());
   auto g = t2m::text2bfm::generate_motion(models, a.prompt, a.opt);
