@@ -1,10 +1,14 @@
 // cmd_train_vbb.cpp — `t2m train vbb`: the variational behavioral bottleneck (Text2BFM Eq 13) on the cached Eq 2
 // policy latents of the train split, in resumable chunks; scores on the val and test splits (Table 4 columns).
 //   t2m train vbb [--out DIR] [--bfm POLICY] [--text TEXT_CKPT] [--steps N] [--stop-at N] [--resume] [--lr X]
-//                 [--compression 1|4|8|16] [--lambda-sem X] [--ship PATH] [--avg-pool] ...
+//                 [--compression 1|4|8|16] [--lambda-sem X] [--ship PATH] [--avg-pool [--export-pool PATH]]
+//                 [--score CKPT] [--dropout X] ...
 // Latents: ~/.cache/t2m/latents/<split>.t2mckpt (models/text2bfm/latent_cache.h), rebuilt when the BFM file's
 // checksum changes. DIR (default ~/.cache/t2m/vbb/default): train_state.t2mckpt, log.jsonl, loss.svg, vbb.t2mckpt,
-// summary.json. --avg-pool scores the average-pooling row instead of training. See docs/VBB.md.
+// summary.json. --avg-pool scores the average-pooling row instead of training (--export-pool PATH also writes it
+// as a VBB checkpoint, vbb_average_pool.h, for `t2m train gen --vbb`); --score CKPT scores a saved VBB. Scores
+// are printed raw and with ẑ projected onto the sphere ‖ẑ‖ = sqrt(d) (what generation feeds the policy; the
+// pooling row's historic setting). See docs/VBB.md.
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -17,6 +21,7 @@
 #include "models/bfm/policy_checkpoint.h"
 #include "models/text/text_motion_model.h"
 #include "models/text2bfm/latent_cache.h"
+#include "models/text2bfm/vbb_average_pool.h"
 #include "models/text2bfm/vbb_checkpoint.h"
 #include "models/text2bfm/vbb_eval.h"
 #include "models/text2bfm/vbb_trainer.h"
@@ -36,7 +41,7 @@ using t2m::Error;
 using clock_type = std::chrono::steady_clock;
 
 struct TrainVbbArgs {
-  std::string out, bfm, text, latents, manifest, ship;
+  std::string out, bfm, text, latents, manifest, ship, export_pool, score;
   int64_t stop_at = 0, compression = 8, save_every = 200, log_every = 10, eval_every = 0;
   int threads = 0;
   bool resume = false, avg_pool = false;
@@ -72,9 +77,9 @@ tb::LatentSet split_latents(const TrainVbbArgs& a, t2m::bfm::FbAgent& agent, con
   return s;
 }
 
-void print_row(const char* split, const tb::VbbEvalResult& r) {
-  std::printf("  %s split (Bandai-Namco, %lld clips, %lld frames): latent MSE %.4f, action KL (Eq 21) %.4f\n", split,
-              (long long)r.clips, (long long)r.frames, r.latent_mse, r.action_kl);
+void print_row(const char* split, const tb::VbbEvalResult& r, const char* how = "") {
+  std::printf("  %s split (Bandai-Namco, %lld clips, %lld frames)%s: latent MSE %.4f, action KL (Eq 21) %.4f\n",
+              split, (long long)r.clips, (long long)r.frames, how, r.latent_mse, r.action_kl);
 }
 
 void run_train_vbb(TrainVbbArgs a, const std::string& cmdline) {
@@ -98,15 +103,40 @@ void run_train_vbb(TrainVbbArgs a, const std::string& cmdline) {
 
   const std::string out = a.out.empty() ? t2m::cli::default_output_dir("vbb/default") : a.out;
   const std::string state = out + "/train_state.t2mckpt";
-  if (!a.avg_pool && fs::exists(state) && !a.resume)
+  if (!a.avg_pool && a.score.empty() && fs::exists(state) && !a.resume)
     throw Error("train vbb: " + state + " exists; pass --resume to continue it or another --out");
 
   const tb::LatentSet val = split_latents(a, *agent, checksum, t2m::data::Split::val);
   const tb::LatentSet test = split_latents(a, *agent, checksum, t2m::data::Split::test);
   if (a.avg_pool) {  // the no-learning "average pooling" row
     std::printf("average pooling, compression %lld, window %lld:\n", (long long)a.compression, (long long)a.cfg.window);
-    print_row("val", tb::evaluate_average_pooling(val, a.compression, a.cfg.window, agent.get()));
-    print_row("test", tb::evaluate_average_pooling(test, a.compression, a.cfg.window, agent.get()));
+    for (bool project : {true, false}) {
+      const char* how = project ? ", Proj to the sphere" : ", plain mean";
+      print_row("val", tb::evaluate_average_pooling(val, a.compression, a.cfg.window, agent.get(), 64, project), how);
+      print_row("test", tb::evaluate_average_pooling(test, a.compression, a.cfg.window, agent.get(), 64, project), how);
+    }
+    if (!a.export_pool.empty()) {
+      const int64_t d = agent->config().z_dim;
+      const auto pool = tb::make_average_pooling_vbb(d, a.compression, std::max<int64_t>(128, (2 * d + 31) / 32 * 32));
+      const auto rt = tb::evaluate_vbb(*pool, test, a.cfg.window, agent.get(), 64, true);
+      tb::save_vbb(*pool, a.export_pool,
+                   {{"command", cmdline}, {"bottleneck", "average pooling (vbb_average_pool.h), nothing learned"},
+                    {"bfm", bfm_path}, {"bfm_checksum", checksum}, {"test_sphere", rt.to_json()}});
+      std::printf("average pooling as a VBB checkpoint: %s\n", a.export_pool.c_str());
+      print_row("test", rt, ", that checkpoint, Proj to the sphere");
+    }
+    return;
+  }
+  if (!a.score.empty()) {  // a saved VBB, raw and projected
+    nlohmann::json info;
+    const auto vbb = tb::load_vbb(a.score, &info);
+    std::printf("%s (compression %lld, window %lld):\n", a.score.c_str(), (long long)vbb->config().compression(),
+                (long long)a.cfg.window);
+    for (bool project : {false, true}) {
+      const char* how = project ? ", Proj to the sphere" : ", raw decoder output";
+      print_row("val", tb::evaluate_vbb(*vbb, val, a.cfg.window, agent.get(), 64, project), how);
+      print_row("test", tb::evaluate_vbb(*vbb, test, a.cfg.window, agent.get(), 64, project), how);
+    }
     return;
   }
   const tb::LatentSet train = split_latents(a, *agent, checksum, t2m::data::Split::train);
@@ -178,6 +208,8 @@ void run_train_vbb(TrainVbbArgs a, const std::string& cmdline) {
 
   const auto rv = tb::evaluate_vbb(tr.model(), val, a.cfg.window, agent.get());
   const auto rt = tb::evaluate_vbb(tr.model(), test, a.cfg.window, agent.get());
+  const auto rvs = tb::evaluate_vbb(tr.model(), val, a.cfg.window, agent.get(), 64, true);
+  const auto rts = tb::evaluate_vbb(tr.model(), test, a.cfg.window, agent.get(), 64, true);
   const json info = {{"command", cmdline},
                      {"steps", tr.steps_done()},
                      {"bfm", bfm_path},
@@ -186,7 +218,9 @@ void run_train_vbb(TrainVbbArgs a, const std::string& cmdline) {
                      {"data", "Bandai-Namco-Research-Motiondataset (CC BY-NC 4.0), train split; scores on our "
                               "val/test splits"},
                      {"val", rv.to_json()},
-                     {"test", rt.to_json()}};
+                     {"test", rt.to_json()},
+                     {"val_sphere", rvs.to_json()},
+                     {"test_sphere", rts.to_json()}};
   const std::string ckpt = out + "/vbb.t2mckpt";
   tb::save_vbb(tr.model(), ckpt, info);
   json summary = info;
@@ -198,6 +232,8 @@ void run_train_vbb(TrainVbbArgs a, const std::string& cmdline) {
               a.cfg.loss.lambda_sem, ckpt.c_str(), a.ship.empty() ? "" : ", shipped to ", a.ship.c_str());
   print_row("val", rv);
   print_row("test", rt);
+  print_row("val", rvs, ", Proj to the sphere");
+  print_row("test", rts, ", Proj to the sphere");
 }
 
 void add_train_vbb(CLI::App& app) {
@@ -215,6 +251,8 @@ void add_train_vbb(CLI::App& app) {
   c->add_option("--ship", a.ship, "copy the final checkpoint here (e.g. models/checkpoints/vbb_small.t2mckpt)");
   c->add_flag("--resume", a.resume, "continue from DIR/train_state.t2mckpt");
   c->add_flag("--avg-pool", a.avg_pool, "score the average-pooling baseline on val/test instead of training");
+  c->add_option("--export-pool", a.export_pool, "with --avg-pool: write the pooling bottleneck as a VBB checkpoint");
+  c->add_option("--score", a.score, "score this VBB checkpoint on val/test (raw and projected) instead of training");
   c->add_option("--stop-at", a.stop_at, "stop (resumably) after this many steps in total");
   c->add_option("--steps", cfg.steps, "optimizer steps of the whole run")->capture_default_str();
   c->add_option("--batch", cfg.batch, "windows per batch")->capture_default_str();
@@ -226,6 +264,7 @@ void add_train_vbb(CLI::App& app) {
   c->add_option("--compression", a.compression, "1 (no compression), 4, 8 or 16")->capture_default_str();
   c->add_option("--width", cfg.vbb.width, "conv width")->capture_default_str();
   c->add_option("--depth", cfg.vbb.depth, "residual blocks per level")->capture_default_str();
+  c->add_option("--dropout", cfg.vbb.dropout, "residual dropout")->capture_default_str();
   c->add_option("--latent", cfg.vbb.latent, "program channels")->capture_default_str();
   c->add_option("--lambda-pi", cfg.loss.lambda_pi, "Eq 5 action-KL weight")->capture_default_str();
   c->add_option("--beta", cfg.loss.beta, "Eq 13 prior-KL weight")->capture_default_str();

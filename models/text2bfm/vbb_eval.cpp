@@ -84,8 +84,24 @@ VbbEvalResult evaluate_reconstruction(const LatentSet& set, int64_t window, bfm:
   return res;
 }
 
-// Table 4 columns for a trained VBB: ẑ = D_θ(μ_φ(z)).
-VbbEvalResult evaluate_vbb(Vbb& vbb, const LatentSet& set, int64_t window, bfm::FbAgent* agent, int64_t batch) {
+Tensor project_rows_to_sphere(const Tensor& z) {
+  Tensor out = z.contiguous().clone();
+  const int64_t d = out.size(out.dim() - 1), n = out.numel() / std::max<int64_t>(d, 1);
+  const double radius = std::sqrt((double)d);
+  float* p = out.data<float>();
+  for (int64_t r = 0; r < n; ++r) {
+    double norm = 0;
+    for (int64_t k = 0; k < d; ++k) norm += (double)p[r * d + k] * p[r * d + k];
+    if (norm <= 0) continue;
+    const double s = radius / std::sqrt(norm);
+    for (int64_t k = 0; k < d; ++k) p[r * d + k] = (float)(p[r * d + k] * s);
+  }
+  return out;
+}
+
+// Table 4 columns for a trained VBB: ẑ = D_θ(μ_φ(z)) (then Proj when `project`).
+VbbEvalResult evaluate_vbb(Vbb& vbb, const LatentSet& set, int64_t window, bfm::FbAgent* agent, int64_t batch,
+                           bool project) {
   const VbbConfig& cfg = vbb.config();
   if (window % cfg.compression() != 0)
     fail("window " + std::to_string(window) + " is not a multiple of the compression " +
@@ -98,16 +114,17 @@ VbbEvalResult evaluate_vbb(Vbb& vbb, const LatentSet& set, int64_t window, bfm::
   const auto rec = [&](const Tensor& z) {
     ag::NoGradGuard ng;
     const VbbPosterior q = vbb.encode(ag::Variable(z), unused);
-    return vbb.decode(q.mu, unused).data();
+    const Tensor zh = vbb.decode(q.mu, unused).data();
+    return project ? project_rows_to_sphere(zh) : zh;
   };
   VbbEvalResult r = evaluate_reconstruction(set, window, agent, rec, batch);
   vbb.train(was_training);
   return r;
 }
 
-// The "average pooling" row: program frame = Proj(mean of c latents), decoded by repetition.
+// The "average pooling" row: program frame = Proj(mean of c latents) (or the plain mean), decoded by repetition.
 VbbEvalResult evaluate_average_pooling(const LatentSet& set, int64_t compression, int64_t window,
-                                       bfm::FbAgent* agent, int64_t batch) {
+                                       bfm::FbAgent* agent, int64_t batch, bool project) {
   if (compression < 1 || window % compression != 0)
     fail("window " + std::to_string(window) + " is not a multiple of the compression " + std::to_string(compression));
   const int64_t d = set.z_dim;
@@ -125,7 +142,7 @@ VbbEvalResult evaluate_average_pooling(const LatentSet& set, int64_t compression
           for (int64_t k = 0; k < d; ++k) m[k] += zp[(b * W + t) * d + k];
         double norm = 0;
         for (double v : m) norm += v * v;
-        const double s = radius / std::max(std::sqrt(norm), 1e-12);
+        const double s = project ? radius / std::max(std::sqrt(norm), 1e-12) : 1.0 / (double)compression;
         for (int64_t t = j * compression; t < (j + 1) * compression; ++t)
           for (int64_t k = 0; k < d; ++k) op[(b * W + t) * d + k] = (float)(m[k] * s);
       }

@@ -9,6 +9,9 @@
 // evaluate_vbb: ẑ = D_θ(μ_φ(z)) in eval mode (posterior mean, no dropout, no sampling), Eq 3–4.
 // evaluate_average_pooling: the "average pooling" row: m_j = Proj(mean of the window's z in [j c, (j + 1) c)) (padding repeats the last real frame),
 //   ẑ_t = m_{⌊t / c⌋} (no learning; Proj to radius sqrt(d) as Eq 2 does with its window means).
+// project (evaluate_vbb: false by default, average pooling: true by default): every reconstructed ẑ_t is put on
+//   the policy's sphere ‖ẑ_t‖ = sqrt(d) before it is scored, as generation does before the policy (GENERATE.md);
+//   the same setting for both rows compares them fairly (docs/VBB.md "Why the VBB lost to pooling").
 // agent may be null: action_kl is then NaN. Results do not depend on `batch` up to float rounding.
 // Errors (t2m::Error "vbb eval: ..."): window not a positive multiple of the compression, a set of another
 // z_dim, an empty set.
@@ -34,8 +37,11 @@ using LatentReconstructor = std::function<Tensor(const Tensor& z)>;
 
 VbbEvalResult evaluate_reconstruction(const LatentSet& set, int64_t window, bfm::FbAgent* agent,
                                       const LatentReconstructor& reconstruct, int64_t batch = 64);
-VbbEvalResult evaluate_vbb(Vbb& vbb, const LatentSet& set, int64_t window, bfm::FbAgent* agent, int64_t batch = 64);
+VbbEvalResult evaluate_vbb(Vbb& vbb, const LatentSet& set, int64_t window, bfm::FbAgent* agent, int64_t batch = 64,
+                           bool project = false);
 VbbEvalResult evaluate_average_pooling(const LatentSet& set, int64_t compression, int64_t window,
-                                       bfm::FbAgent* agent, int64_t batch = 64);
+                                       bfm::FbAgent* agent, int64_t batch = 64, bool project = true);
+// Every row z_t of z (..., d) scaled to norm sqrt(d) (Eq 2's Proj); rows of norm 0 stay 0.
+Tensor project_rows_to_sphere(const Tensor& z);
 
 }  // namespace t2m::text2bfm
