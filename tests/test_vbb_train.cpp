@@ -294,7 +294,7 @@ TEST(VbbCheckpoint, RoundTripAndBadFiles) {
   ck.save(dir + "/fmt.t2mckpt");
   expect_error([&] { load_vbb(dir + "/fmt.t2mckpt"); }, {"not a VBB checkpoint"});
   ck = nn::Checkpoint::load(dir + "/v.t2mckpt");
-  ck.meta["config"]["levels"] = 0;
+  ck.meta["config"]["levels"] = 7;  // 0..6 are valid (0: no compression)
   ck.save(dir + "/cfg.t2mckpt");
   expect_error([&] { load_vbb(dir + "/cfg.t2mckpt"); }, {"bad config"});
 }

@@ -264,6 +264,7 @@ void add_train_vbb(CLI::App& app) {
   c->add_option("--compression", a.compression, "1 (no compression), 4, 8 or 16")->capture_default_str();
   c->add_option("--width", cfg.vbb.width, "conv width")->capture_default_str();
   c->add_option("--depth", cfg.vbb.depth, "residual blocks per level")->capture_default_str();
+  c->add_flag("--pool-init", cfg.pool_init, "start at average pooling (needs --latent = the BFM's z_dim; ours)");
   c->add_option("--dropout", cfg.vbb.dropout, "residual dropout")->capture_default_str();
   c->add_option("--latent", cfg.vbb.latent, "program channels")->capture_default_str();
   c->add_option("--lambda-pi", cfg.loss.lambda_pi, "Eq 5 action-KL weight")->capture_default_str();

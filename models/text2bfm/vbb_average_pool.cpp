@@ -4,6 +4,8 @@
 #include <map>
 #include <string>
 
+#include "autograd/no_grad.h"
+
 namespace t2m::text2bfm {
 namespace {
 
@@ -38,12 +40,26 @@ std::unique_ptr<Vbb> make_average_pooling_vbb(int64_t in_dim, int64_t compressio
   cfg.dropout = 0.0;
   Generator gen(0);
   auto vbb = std::make_unique<Vbb>(cfg, gen);
+  init_vbb_as_average_pooling(*vbb);
+  vbb->eval();
+  return vbb;
+}
+
+void init_vbb_as_average_pooling(Vbb& vbb) {
+  const VbbConfig& cfg = vbb.config();
+  if (cfg.latent != cfg.in_dim)
+    fail("latent " + std::to_string(cfg.latent) + " must equal in_dim " + std::to_string(cfg.in_dim));
+  if (cfg.width < 2 * cfg.in_dim)
+    fail("width must be >= 2 in_dim = " + std::to_string(2 * cfg.in_dim) + ", got " + std::to_string(cfg.width));
+  ag::NoGradGuard ng;
   ConvSetter s;
-  for (auto& [name, v] : vbb->named_parameters()) {
+  for (auto& [name, v] : vbb.named_parameters()) {
     if (!v.data().is_contiguous() || v.data().dtype() != DType::f32) fail("parameter " + name + " is not f32 contiguous");
     s.params.emplace(name, v);
+    if (name.size() > 9 && name.compare(name.size() - 9, 9, "c2.weight") == 0) v.data().fill_(0.0);
+    if (name.size() > 7 && name.compare(name.size() - 7, 7, "c2.bias") == 0) v.data().fill_(0.0);
   }
-  const int64_t d = in_dim, L = cfg.levels;
+  const int64_t d = cfg.in_dim, L = cfg.levels;
   const int64_t last3 = 2;  // the current frame's tap of a causal k3 conv
   // Encoder: enc.0 z -> [z, −z] (then ReLU), enc.{2+2l} mean of taps 2, 3 (frames 2j, 2j+1), enc.{2+2L} -> mu, logvar.
   s.zero("enc.0");
@@ -85,8 +101,6 @@ std::unique_ptr<Vbb> make_average_pooling_vbb(int64_t in_dim, int64_t compressio
     s.set(dout, k, k, last3, 1.f);
     s.set(dout, k, d + k, last3, -1.f);
   }
-  vbb->eval();
-  return vbb;
 }
 
 }  // namespace t2m::text2bfm

@@ -10,6 +10,7 @@
 #include "autograd/ops_shape.h"
 #include "models/bfm/fb_networks.h"
 #include "models/data/captions.h"
+#include "models/text2bfm/vbb_average_pool.h"
 #include "models/text2bfm/vbb_checkpoint.h"
 #include "nn/grad_utils.h"
 #include "nn/loss_contrastive.h"
@@ -39,6 +40,7 @@ nlohmann::json VbbTrainConfig::to_json() const {
   l["lambda_frm"] = loss.frame_token.lambda_frm;
   j["vbb"] = vbb_config_json(vbb);
   j["loss"] = l;
+  if (pool_init) j["pool_init"] = true;  // only when set: older train states keep their config
   return j;
 }
 
@@ -51,6 +53,7 @@ VbbTrainConfig VbbTrainConfig::from_json(const nlohmann::json& j) {
 #undef X
     const nlohmann::json m = j.value("vbb", nlohmann::json::object()), l = j.value("loss", nlohmann::json::object());
     if (j.contains("vbb")) c.vbb = parse_vbb_config(m);
+    if (j.contains("pool_init")) c.pool_init = j.at("pool_init").get<bool>();
 #define X(f) \
   if (l.contains(#f)) c.loss.f = l.at(#f).get<decltype(c.loss.f)>();
     T2M_VBB_LOSS_FIELDS(X)
@@ -106,6 +109,7 @@ VbbTrainer::VbbTrainer(const VbbTrainConfig& cfg, const LatentSet& train, bfm::F
     actor_ = frozen_bfm_actor(*agent);
   }
   vbb_ = std::make_shared<Vbb>(cfg_.vbb, init_gen_);
+  if (cfg_.pool_init) init_vbb_as_average_pooling(*vbb_);
   vbb_->train();
   for (auto& p : vbb_->named_parameters()) params_.emplace_back("vbb." + p.first, p.second);
   if (text_ && cfg_.loss.lambda_sem > 0) {

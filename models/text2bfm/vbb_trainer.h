@@ -52,6 +52,8 @@ struct VbbTrainConfig {
   uint64_t seed = 0;
   uint64_t caption_seed = 0;
   int paraphrases = 16;       // caption indices drawn per clip
+  bool pool_init = false;     // start at average pooling (vbb_average_pool.h; needs latent == in_dim); ours, not
+                              // the paper's: docs/VBB.md "Why the VBB lost to pooling"
 
   nlohmann::json to_json() const;
   static VbbTrainConfig from_json(const nlohmann::json& j);  // missing keys keep defaults
