@@ -4,45 +4,22 @@
 
 #include <map>
 
+#include "models/data/features.h"
 #include "models/promotion/pose.h"
 #include "models/promotion/posecodes.h"
 #include "models/promotion/posture_script.h"
 #include "sim/skeleton.h"
 #include "tensor/tensor.h"
+#include "test_features_synthetic.h"
+#include "test_promotion_poses.h"
 
 namespace {
 
 using namespace t2m;
 using namespace t2m::promotion;
 using namespace t2m::sim;
-
-struct Joints {
-  float p[21][3];
-  void set(int j, float x, float y, float z) { p[j][0] = x, p[j][1] = y, p[j][2] = z; }
-  const float* data() const { return &p[0][0]; }
-};
-
-// Upright, arms hanging, feet under the hips on the floor (x forward, y left, z up).
-Joints standing() {
-  Joints J;
-  J.set(kHips, 0, 0, 0.95f);
-  J.set(kSpine, 0, 0, 1.05f);
-  J.set(kChest, 0, 0, 1.25f);
-  J.set(kNeck, 0, 0, 1.45f);
-  J.set(kHead, 0, 0, 1.60f);
-  for (int s : {1, -1}) {
-    bool L = s > 0;
-    J.set(L ? kShoulderL : kShoulderR, 0, 0.05f * s, 1.40f);
-    J.set(L ? kUpperArmL : kUpperArmR, 0, 0.18f * s, 1.40f);
-    J.set(L ? kLowerArmL : kLowerArmR, 0, 0.18f * s, 1.12f);
-    J.set(L ? kHandL : kHandR, 0, 0.18f * s, 0.85f);
-    J.set(L ? kUpperLegL : kUpperLegR, 0, 0.10f * s, 0.92f);
-    J.set(L ? kLowerLegL : kLowerLegR, 0, 0.10f * s, 0.50f);
-    J.set(L ? kFootL : kFootR, 0, 0.10f * s, 0.08f);
-    J.set(L ? kToesL : kToesR, 0.12f, 0.10f * s, 0.02f);
-  }
-  return J;
-}
+using t2m::testing::Joints;
+using t2m::testing::standing;
 
 int rule_index(const std::string& name) {
   const auto& r = posecode_rules();
@@ -204,6 +181,28 @@ TEST(PostureScript, BadInputThrows) {
   c[0] = 99;
   EXPECT_THROW(posture_script(c), Error);
   EXPECT_THROW(posecode_agreement(c, {0}), Error);
+}
+
+}  // namespace
+
+namespace {
+
+TEST(Posecodes, MirrorOfCodesEqualsCodesOfTheMirroredPose) {
+  using namespace t2m;
+  using namespace t2m::promotion;
+  const std::vector<float> f = data::motion_to_features(t2m::testing::synthetic_walk(40));
+  const std::vector<float> p = poses_from_features(f), m = mirror_poses(p);
+  for (int t = 0; t < 40; ++t)
+    EXPECT_EQ(mirror_posecodes(pose_posecodes(p.data() + t * kPoseDim)), pose_posecodes(m.data() + t * kPoseDim))
+        << t;
+  Joints J = standing();
+  J.set(kFootL, 0.40f, 0.10f, 0.30f);  // left foot forward and up
+  J.set(kToesL, 0.52f, 0.10f, 0.26f);
+  const std::vector<int> c = compute_posecodes(J.data()), mc = mirror_posecodes(c);
+  const std::string s = posture_script(mc);
+  EXPECT_NE(s.find("the right foot is off the ground"), std::string::npos) << s;
+  EXPECT_NE(s.find("the left foot is behind the right foot"), std::string::npos) << s;
+  EXPECT_THROW(mirror_posecodes({1}), Error);
 }
 
 }  // namespace

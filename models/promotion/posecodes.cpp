@@ -93,8 +93,10 @@ Table build_table() {
        "both knees are {c} the hips");
   t.add(rule(F::relative_position, "left foot / right foot (x)", kFootL, kFootR, -1, 0, kRelThresholds,
              {"behind", "", "in front of"}, "the left foot is {c} the right foot"));
+  t.rules.back().mirror_flips = true;
   t.add(rule(F::relative_position, "left foot / right foot (z)", kFootL, kFootR, -1, 2, kRelThresholds,
              {"below", "", "above"}, "the left foot is {c} the right foot"));
+  t.rules.back().mirror_flips = true;
   t.add(rule(F::relative_position, "left hand / right hand (y)", kHandL, kHandR, -1, 1, {-0.05},
              {"to the right of", ""}, "the left hand is {c} the right hand"));
   t.add(rule(F::relative_position, "left foot / right foot (y)", kFootL, kFootR, -1, 1, {-0.05},
@@ -206,6 +208,24 @@ std::vector<int> compute_posecodes(const float* joints) {
 std::vector<int> pose_posecodes(const float* pose) {
   std::vector<float> j = joint_positions(pose);
   return compute_posecodes(j.data());
+}
+
+std::vector<int> mirror_posecodes(const std::vector<int>& codes) {
+  const auto& rules = posecode_rules();
+  if (codes.size() != rules.size())
+    throw Error("mirror_posecodes: expected " + std::to_string(rules.size()) + " codes, got " +
+                std::to_string(codes.size()));
+  std::vector<int> out(codes.size());
+  for (size_t i = 0; i < rules.size(); ++i) {
+    const PosecodeRule& r = rules[i];
+    if (r.partner >= 0)
+      out[i] = codes[r.partner];
+    else if (r.mirror_flips)
+      out[i] = (int)r.categories.size() - 1 - codes[i];
+    else
+      out[i] = codes[i];
+  }
+  return out;
 }
 
 double posecode_agreement(const std::vector<int>& target, const std::vector<int>& got) {

@@ -41,6 +41,7 @@ struct PosecodeRule {
   std::string text;                     // "the left elbow is {c}"
   std::string both_text;                // "both elbows are {c}" (aggregation with the partner), "" = none
   int partner = -1;                     // index of the left/right counterpart rule
+  bool mirror_flips = false;            // L/R joint pair along x or z: the mirror reverses the category order
   bool described(int category) const { return category >= 0 && !categories[category].empty(); }
 };
 
@@ -55,6 +56,11 @@ int posecode_category(const PosecodeRule& r, double value);
 std::vector<int> compute_posecodes(const float* joints);
 // Categories of a pose [kPoseDim] (pose.h).
 std::vector<int> pose_posecodes(const float* pose);
+
+// The codes of the left/right mirrored pose (features_mirror.h): partner rules swap their categories, rules with
+// mirror_flips reverse theirs (c -> n - 1 - c; symmetric thresholds), the others keep theirs. Exact except for values
+// lying exactly on a threshold. Throws when the size is not num_posecodes().
+std::vector<int> mirror_posecodes(const std::vector<int>& codes);
 
 // Agreement of `got` with the described codes of `target`: (codes described in target with got == target) /
 // (codes described in target); 1 when target describes nothing. Sizes must be num_posecodes() (throws).
