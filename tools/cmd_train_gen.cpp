@@ -3,6 +3,7 @@
 // frozen BFM; latent_cache.h), text = the frozen text encoder's token features of captions made from the clips'
 // labels (make_caption, --paraphrases per clip). Resumable chunks (--resume, --stop-at), progress bar, JSONL log +
 // SVG plot, OUT/gen_small.t2mckpt (+ --ship PATH) and OUT/summary.json. See docs/GENERATE.md.
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -18,6 +19,7 @@
 #include "models/text2bfm/vbb_checkpoint.h"
 #include "models/text2bfm/program_dataset.h"
 #include "nn/checkpoint.h"
+#include "tensor/ops.h"
 #include "tensor/parallel.h"
 #include "tools/command.h"
 #include "tools/text_data.h"
@@ -99,8 +101,15 @@ void run(GenArgs a, const std::string& cmdline) {
   const auto eb = t2m::text::encode_captions(tb.tokenizer, texts, max_len);
   t2m::Tensor tokens;
   {
-    t2m::ag::NoGradGuard ng;
-    tokens = enc.forward(eb.ids, eb.mask).tokens.data().contiguous();
+    t2m::ag::NoGradGuard ng;  // in chunks of 512 captions: one pass over all 17,944 needs ~5.6 GB
+    std::vector<t2m::Tensor> parts;
+    const int64_t n = eb.ids.size(0);
+    for (int64_t i = 0; i < n; i += 512) {
+      const int64_t k = std::min<int64_t>(512, n - i);
+      parts.push_back(enc.forward(eb.ids.narrow(0, i, k).contiguous(), eb.mask.narrow(0, i, k).contiguous())
+                          .tokens.data().contiguous());
+    }
+    tokens = t2m::concat(parts, 0);
   }
   const auto data = t2b::make_program_dataset(std::move(programs), caps, tokens, eb.mask, a.window);
 
@@ -120,6 +129,8 @@ void run(GenArgs a, const std::string& cmdline) {
   b.program_std = data.std;
   b.compression = vbb->config().compression();
   b.window = a.window;
+  b.objective = a.train.objective;
+  b.schedule = a.train.schedule;
   b.train = {{"command", cmdline}, {"steps", r.steps}, {"config", a.train.to_json()},
              {"data", "Bandai-Namco-Research-Motiondataset (CC BY-NC 4.0), train split"},
              {"text_encoder", text_p}, {"vbb", vbb_p}, {"bfm", bfm_p}, {"bfm_checksum", sum}};
@@ -131,8 +142,8 @@ void run(GenArgs a, const std::string& cmdline) {
                         {"generator", t2b::flow_config_to_json(a.gen)}};
   t2m::nn::write_file_atomic(out + "/summary.json", summary.dump(1) + "\n");
   if (!a.ship.empty()) t2m::cli::copy_file_atomic(ckpt, a.ship);
-  std::printf("gen: %lld steps, Eq 15 loss %.4f (smoothed, train split); checkpoint %s%s%s\n  log %s, plot %s\n",
-              (long long)r.steps, r.final_loss, ckpt.c_str(), a.ship.empty() ? "" : ", shipped to ", a.ship.c_str(),
+  std::printf("gen (%s): %lld steps, loss %.4f (smoothed, train split); checkpoint %s%s%s\n  log %s, plot %s\n",
+              a.train.objective.c_str(), (long long)r.steps, r.final_loss, ckpt.c_str(), a.ship.empty() ? "" : ", shipped to ", a.ship.c_str(),
               p.log.c_str(), p.svg.c_str());
 }
 
@@ -161,6 +172,9 @@ void add_train_gen(CLI::App& app) {
   c->add_option("--seed", a->train.seed, "seed (init, batches, noise, dropout)")->capture_default_str();
   c->add_option("--save-every", a->train.save_every, "steps between resumable checkpoints")->capture_default_str();
   c->add_option("--stop-at", a->train.stop_at, "stop (resumably) after this many steps in total");
+  c->add_option("--objective", a->train.objective, "flow (Eq 15) | diffusion (v-prediction, Table 5's variant)")
+      ->capture_default_str();
+  c->add_option("--schedule", a->train.schedule, "diffusion noise schedule: cosine | linear")->capture_default_str();
   c->add_option("--window", a->window, "program frames per training window")->capture_default_str();
   c->add_option("--paraphrases", a->paraphrases, "captions per clip")->capture_default_str();
   c->add_option("--width", a->gen.width, "generator width")->capture_default_str();

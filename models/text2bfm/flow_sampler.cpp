@@ -38,19 +38,15 @@ Tensor guided_velocity(const Tensor& v_cond, const Tensor& v_uncond, double w) {
   return add(v_uncond, mul(sub(v_cond, v_uncond), w));
 }
 
-Tensor sample_programs(const FlowGenerator& gen, const Tensor& tokens, const Tensor& tok_mask, int64_t Tm,
-                       Generator& rng, const FlowSamplerOptions& opt) {
+VelocityField guided_field(const FlowGenerator& gen, const Tensor& tokens, const Tensor& tok_mask, double w) {
   const FlowGeneratorConfig& cf = gen.config();
-  if (Tm < 1) throw Error("flow_sampler: Tm must be >= 1, got " + std::to_string(Tm));
-  if (!std::isfinite(opt.guidance)) throw Error("flow_sampler: guidance must be finite");
+  if (!std::isfinite(w)) throw Error("flow_sampler: guidance must be finite");
   if (tokens.dim() != 3 || tokens.size(2) != cf.adapter.tok_dim)
     throw Error("flow_sampler: tokens must be (B, L, " + std::to_string(cf.adapter.tok_dim) + "), got " +
                 shape_str(tokens.shape()));
   ag::NoGradGuard no_grad;
   const DType dt = gen.null_ctx().dtype();
   const int64_t B = tokens.size(0);
-  const Tensor m0 = rand_normal({B, Tm, cf.latent}, rng, 0.0, 1.0, dt);
-  const double w = opt.guidance;
   FlowContext cond, both;
   if (w != 0.0) cond = gen.encode_text(ag::Variable(tokens.to(dt)), tok_mask);
   if (w != 0.0 && w != 1.0) {  // [cond ; null] as one batch of 2B: the null rows see S copies of null_ctx
@@ -60,12 +56,21 @@ Tensor sample_programs(const FlowGenerator& gen, const Tensor& tokens, const Ten
     both = gen.drop_condition(twice, drop);
   }
   const FlowContext null = gen.null_context(B);
-  auto field = [&](const Tensor& m, const Tensor& r) -> Tensor {
+  return [&gen, cond, both, null, w, B](const Tensor& m, const Tensor& r) -> Tensor {
+    ag::NoGradGuard ng;
     if (w == 1.0) return gen.velocity(ag::Variable(m), r, cond).data();
     if (w == 0.0) return gen.velocity(ag::Variable(m), r, null).data();
     const Tensor v2 = gen.velocity(ag::Variable(concat({m, m}, 0)), concat({r, r}, 0), both).data();
     return guided_velocity(v2.narrow(0, 0, B), v2.narrow(0, B, B), w);
   };
+}
+
+Tensor sample_programs(const FlowGenerator& gen, const Tensor& tokens, const Tensor& tok_mask, int64_t Tm,
+                       Generator& rng, const FlowSamplerOptions& opt) {
+  if (Tm < 1) throw Error("flow_sampler: Tm must be >= 1, got " + std::to_string(Tm));
+  const VelocityField field = guided_field(gen, tokens, tok_mask, opt.guidance);
+  ag::NoGradGuard no_grad;
+  const Tensor m0 = rand_normal({tokens.size(0), Tm, gen.config().latent}, rng, 0.0, 1.0, gen.null_ctx().dtype());
   return euler_integrate(field, m0, opt.steps);
 }
 

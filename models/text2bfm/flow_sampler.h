@@ -10,6 +10,9 @@
 //   encoded once, then Euler with the guided field; conditional and null-condition passes of a step run as one
 //   batch of 2B (w = 1 runs the conditional pass only; w = 0 the unconditional one only). No autograd graph is
 //   recorded (NoGradGuard). Returns (B, Tm, latent) in the generator's dtype.
+// guided_field(gen, tokens, tok_mask, w): the guided generator field as a VelocityField (what sample_programs
+//   integrates; the diffusion sampler (diffusion_sampler.h) uses it for its v prediction): the text context is
+//   encoded once here, each call runs the conditional and null passes as one batch of 2B.
 // Errors (t2m::Error "flow_sampler: ..."): steps < 1, a field returning the wrong shape or dtype, Tm < 1,
 //   non-finite w, tokens not (B, L, tok_dim); generator errors pass through.
 #pragma once
@@ -34,6 +37,8 @@ Tensor euler_integrate(const VelocityField& v, const Tensor& m0, int64_t steps);
 
 // Classifier-free guidance: v_u + w (v_c - v_u).
 Tensor guided_velocity(const Tensor& v_cond, const Tensor& v_uncond, double w);
+
+VelocityField guided_field(const FlowGenerator& gen, const Tensor& tokens, const Tensor& tok_mask, double w);
 
 Tensor sample_programs(const FlowGenerator& gen, const Tensor& tokens, const Tensor& tok_mask, int64_t Tm,
                        Generator& rng, const FlowSamplerOptions& opt = {});

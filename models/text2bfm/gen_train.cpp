@@ -6,18 +6,22 @@
 #include <filesystem>
 
 #include "nn/grad_utils.h"
+#include "nn/loss_diffusion.h"
 #include "nn/loss_flow.h"
 #include "nn/lr_schedule.h"
 #include "nn/optim_adamw.h"
 #include "nn/progress.h"
 #include "nn/train_log.h"
 #include "nn/train_state.h"
+#include "tensor/ops.h"
 
 namespace t2m::text2bfm {
 
 nlohmann::json GenTrainConfig::to_json() const {
-  return {{"steps", steps}, {"batch", batch}, {"lr", lr},  {"weight_decay", weight_decay},
-          {"warmup", warmup}, {"seed", seed}};
+  nlohmann::json j = {{"steps", steps}, {"batch", batch}, {"lr", lr},  {"weight_decay", weight_decay},
+                      {"warmup", warmup}, {"seed", seed}};
+  if (objective != "flow") j["objective"] = objective, j["schedule"] = schedule;
+  return j;
 }
 
 void GenTrainConfig::validate() const {
@@ -25,6 +29,9 @@ void GenTrainConfig::validate() const {
       save_every < 1 || stop_at < 0)
     throw Error("gen train: bad config " + to_json().dump() + " (steps, batch, save_every >= 1, lr > 0, "
                 "0 <= warmup < steps)");
+  if (objective != "flow" && objective != "diffusion")
+    throw Error("gen train: objective must be flow or diffusion, got '" + objective + "'");
+  nn::noise_schedule_from_name(schedule);
 }
 
 GenTrainResult train_generator(FlowGenerator& gen, const ProgramDataset& data, const GenTrainConfig& cfg,
@@ -50,17 +57,29 @@ GenTrainResult train_generator(FlowGenerator& gen, const ProgramDataset& data, c
   nn::ProgressOptions po;
   po.start = ts.step;
   nn::Progress bar(cfg.steps, label, po);
+  const bool diffusion = cfg.objective == "diffusion";
+  const nn::NoiseSchedule schedule = nn::noise_schedule_from_name(cfg.schedule);
   while (ts.step < end) {
     opt.set_lr(sched.at(ts.step));
     opt.zero_grad();
     const ProgramBatch b = sample_program_batch(data, cfg.batch, data_rng);
-    const nn::FlowSample fsmp = nn::sample_flow_pair(b.m, flow_rng);           // Eq 14
-    const Tensor drop = gen.sample_condition_drop(cfg.batch, drop_rng);
-    const ag::Variable v = gen.forward(ag::Variable(fsmp.x_t), fsmp.t, ag::Variable(b.tokens), b.tok_mask, drop,
-                                       b.m_mask);
     nn::MseOptions mo;
     mo.weights = b.m_mask.unsqueeze(2);
-    ag::Variable loss = nn::flow_matching_loss(v, ag::Variable(fsmp.x0), ag::Variable(b.m), mo);  // Eq 15
+    ag::Variable loss;
+    if (diffusion) {  // v-prediction (Table 5's diffusion variant)
+      const nn::DiffusionSample ds = nn::sample_diffusion_pair(b.m, flow_rng, schedule);
+      const Tensor drop = gen.sample_condition_drop(cfg.batch, drop_rng);
+      const ag::Variable v = gen.forward(ag::Variable(ds.x_t), t2m::add(t2m::neg(ds.t), 1.0), ag::Variable(b.tokens),
+                                         b.tok_mask, drop, b.m_mask);
+      loss = nn::diffusion_v_loss(v, ag::Variable(b.m), ag::Variable(ds.eps), ag::Variable(ds.alpha),
+                                  ag::Variable(ds.sigma), mo);
+    } else {
+      const nn::FlowSample fsmp = nn::sample_flow_pair(b.m, flow_rng);           // Eq 14
+      const Tensor drop = gen.sample_condition_drop(cfg.batch, drop_rng);
+      const ag::Variable v = gen.forward(ag::Variable(fsmp.x_t), fsmp.t, ag::Variable(b.tokens), b.tok_mask, drop,
+                                         b.m_mask);
+      loss = nn::flow_matching_loss(v, ag::Variable(fsmp.x0), ag::Variable(b.m), mo);  // Eq 15
+    }
     loss.backward();
     const double l = loss.item();
     const double gn = nn::clip_grad_norm(params, 1.0);
@@ -76,7 +95,8 @@ GenTrainResult train_generator(FlowGenerator& gen, const ProgramDataset& data, c
     nn::SvgPlotOptions so;
     so.keys = {"loss"};
     so.log_y = true;
-    so.title = "flow generator: Eq 15 loss (train split programs)";
+    so.title = diffusion ? "diffusion generator: v-prediction loss (train split programs)"
+                         : "flow generator: Eq 15 loss (train split programs)";
     try {
       nn::write_loss_svg(paths.log, paths.svg, so);
     } catch (const Error&) {  // an empty log (nothing trained in this call) has nothing to plot

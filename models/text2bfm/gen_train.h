@@ -5,6 +5,10 @@
 // One step: batch (B windows of W program frames, program_dataset.h) from rng "data"; t ~ U[0, 1) and ε ~ N(0, I)
 // from rng "flow" (nn::sample_flow_pair); dropped samples from rng "drop"; loss = mean over real frames and
 // channels of (v_η(m_t, t, Y) − (m − ε))² (nn::flow_matching_loss with the frame mask).
+// objective "diffusion" (Table 5's variant): the same network and loop, but t ~ U[0, 1) and ε from rng "flow"
+// (nn::sample_diffusion_pair), x_t = alpha(t) m + sigma(t) ε with the cosine (or linear) VP schedule, the network
+// gets r = 1 − t and the loss is the v-prediction MSE mean over real frames of (v_η − (alpha ε − sigma m))²
+// (nn::diffusion_v_loss); sample with diffusion_sampler.h.
 // Resumable: nn::TrainState at paths.state every save_every steps and at the end (parameters, AdamW moments,
 // the three generators, step); resume = bit-identical continuation for the same thread count. stop_at > 0 ends
 // the run (resumably) after that many steps in total. JSONL log (step, loss, lr, grad_norm) and an SVG plot.
@@ -28,7 +32,9 @@ struct GenTrainConfig {
   uint64_t seed = 1;
   int64_t save_every = 250;
   int64_t stop_at = 0;
-  nlohmann::json to_json() const;
+  std::string objective = "flow";   // "flow" (Eq 15) | "diffusion" (v-prediction)
+  std::string schedule = "cosine";  // diffusion only
+  nlohmann::json to_json() const;   // objective/schedule only when not flow (flow states resume as before)
   void validate() const;
 };
 

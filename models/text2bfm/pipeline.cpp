@@ -11,6 +11,7 @@
 #include "models/text/text_motion_model.h"
 #include "models/text/tokenizer.h"
 #include "models/text2bfm/compose.h"
+#include "models/text2bfm/diffusion_sampler.h"
 #include "models/text2bfm/flow_sampler.h"
 #include "models/text2bfm/latent_cache.h"
 #include "models/text2bfm/vbb_checkpoint.h"
@@ -152,10 +153,19 @@ Generation generate_motion(Text2BfmModels& m, const std::string& prompt, const G
   t0 = clock::now();
   c0 = process_cpu_s();
   Generator rng(opt.seed);
-  FlowSamplerOptions so;
-  so.steps = opt.steps;
-  so.guidance = opt.cfg;
-  Tensor prog = sample_programs(*m.gen.model, tt.tokens, tt.mask, Tm, rng, so).to(DType::f32).contiguous();
+  Tensor prog;
+  if (m.gen.objective == "diffusion") {  // Table 5's variant: v-prediction network, DDIM
+    DiffusionSamplerOptions so;
+    so.steps = opt.steps;
+    so.guidance = opt.cfg;
+    so.schedule = nn::noise_schedule_from_name(m.gen.schedule);
+    prog = sample_programs_diffusion(*m.gen.model, tt.tokens, tt.mask, Tm, rng, so).to(DType::f32).contiguous();
+  } else {
+    FlowSamplerOptions so;
+    so.steps = opt.steps;
+    so.guidance = opt.cfg;
+    prog = sample_programs(*m.gen.model, tt.tokens, tt.mask, Tm, rng, so).to(DType::f32).contiguous();
+  }
   {
     const int64_t dm = prog.size(2);
     const float* mu = m.gen.program_mean.data<float>();

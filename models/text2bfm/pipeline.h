@@ -2,6 +2,7 @@
 //
 //   prompt --tokenizer--> ids --frozen text encoder--> y (B, L, D)                          stage "text"
 //   m(0) ~ N(0, I) (B, Tm, d_m) --Eq 16 Euler, `steps` steps, CFG w--> m(1); m = m(1) std + mean  stage "sample"
+//   (a generator checkpoint with objective "diffusion" is sampled with DDIM instead, diffusion_sampler.h)
 //   D_θ(m) (Eq 4) -> ẑ (B, Tz, d); Compose: Eq 18–19 over the clauses; Proj onto the sphere ‖z‖ = √d  "decode"
 //   a_t = μ(s_t, z_t) (the BFM policy mean), one 30 Hz MuJoCo control step each, t = 0..T-1, from the standing
 //   start (the humanoid's qpos0: reference pose, soles on the floor, zero velocity)                    "rollout"

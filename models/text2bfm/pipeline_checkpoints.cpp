@@ -81,6 +81,10 @@ void save_gen_checkpoint(const GenBundle& b, const std::string& path) {
              {"config", flow_config_to_json(b.model->config())},
              {"program", {{"compression", b.compression}, {"latent", d}, {"window", b.window}}},
              {"train", b.train}};
+  if (b.objective != "flow" && b.objective != "diffusion")
+    throw Error("gen checkpoint " + path + ": objective must be flow or diffusion, got '" + b.objective + "'");
+  if (b.objective == "diffusion")
+    ck.meta["objective"] = {{"kind", "diffusion"}, {"prediction", "v"}, {"schedule", b.schedule}};
   b.model->save_to(ck, "model.");
   ck.put("program_mean", b.program_mean.to(DType::f32).reshape({d}));
   ck.put("program_std", b.program_std.to(DType::f32).reshape({d}));
@@ -101,6 +105,16 @@ GenBundle load_gen_checkpoint(const std::string& path) {
     b.compression = p.at("compression").get<int64_t>();
     b.window = p.at("window").get<int64_t>();
     b.train = ck.meta.value("train", json::object());
+    if (ck.meta.contains("objective")) {
+      const json& o = ck.meta.at("objective");
+      b.objective = o.at("kind").get<std::string>();
+      if (b.objective != "flow" && b.objective != "diffusion")
+        throw Error("unknown objective '" + b.objective + "' (flow | diffusion)");
+      if (o.value("prediction", std::string("v")) != "v") throw Error("only v-prediction diffusion is supported");
+      b.schedule = o.value("schedule", std::string("cosine"));
+      if (b.schedule != "cosine" && b.schedule != "linear")
+        throw Error("unknown noise schedule '" + b.schedule + "' (cosine | linear)");
+    }
   } catch (const Error& e) {
     throw Error(who + ": " + e.what());
   } catch (const std::exception& e) {

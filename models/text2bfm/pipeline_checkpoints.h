@@ -5,6 +5,8 @@
 //     "train": {...provenance...}}, tensors "model." + FlowGenerator parameter names, "program_mean" (d_m) and
 //     "program_std" (d_m) float32: the generator works on standardised programs (m - mean) / std (statistics of
 //     the train-split programs), so that m(0) ~ N(0, I) (Eq 16) starts at the data's scale.
+//   A generator trained with the diffusion objective (gen_train.h, Table 5's variant) also has meta "objective":
+//   {"kind": "diffusion", "prediction": "v", "schedule": "cosine" | "linear"}; absent = "flow" (Eq 14-16).
 //   (vbb_small.t2mckpt is models/text2bfm/vbb_checkpoint.h's file, `t2m train vbb`.)
 // Config JSON: every field of FlowGeneratorConfig (adapter nested as "adapter"); from_json fills missing keys with
 // defaults and rejects unknown ones.
@@ -30,6 +32,8 @@ struct GenBundle {
   int64_t compression = 8;           // of the VBB whose programs it learned
   int64_t window = 0;                // program frames per training window
   nlohmann::json train = nlohmann::json::object();
+  std::string objective = "flow";   // "flow" (Eq 15, Euler Eq 16) | "diffusion" (v-prediction, DDIM)
+  std::string schedule = "cosine";  // diffusion only: nn/diffusion_schedule.h
 };
 
 void save_gen_checkpoint(const GenBundle& b, const std::string& path);
