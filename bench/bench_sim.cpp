@@ -3,16 +3,18 @@
 //
 // Workload: VecEnv with 8 envs; each env holds the reference pose with small sinusoidal PD targets (actions), and
 // is reset to the standing pose every 60 control steps (2 s), so the timing mixes standing, stepping and fallen
-// states, like PD tracking does (the targets depend on the step within that cycle, so every cycle is the same). items_per_second = control steps per second over all envs.
+// states, like PD tracking does (the targets depend on the step within that cycle, so every cycle is the same).
+// items_per_second = control steps per second over all envs.
 // Counters: cpu_us_per_step = process CPU time per control step (all threads); idle_cores_steps_per_s =
 // threads * 1e6 / cpu_us_per_step, the rate `threads` otherwise idle cores would give (an estimate from CPU time,
 // not a wall-clock measurement); load1 = the 1-minute load average at the end of the run (other processes).
-// BM_EnvStepUndisturbed: the same workload on one thread, Env by Env; the workload repeats exactly every 60 steps
-// (the actions depend on the step within the cycle, the physics is deterministic), so the smallest thread CPU
+// BM_EnvStepUndisturbed/variant:V: the same workload on one thread, Env by Env; the workload repeats exactly every
+// 60 steps (the actions depend on the step within the cycle, the physics is deterministic), so the smallest thread CPU
 // time of each (cycle step, env) over 10 cycles is that step's cost when no other process interrupted it or
 // evicted its caches in between: undisturbed_us_per_step = their mean, undisturbed_steps_per_s = 1e6 / that.
-// Args: {threads, variant}; variant 0 = ours (Euler, Newton 8 iterations, body-floor contacts as predefined pairs),
-// 1 = implicit integrator, 2 = + self collision, 3 = 100 solver iterations (MuJoCo's default).
+// Args: {threads, variant}; variant 0 = ours (Euler, PGS 10 iterations, body-floor contacts as predefined pairs),
+// 1 = implicit integrator, 2 = + self collision, 3 = 100 solver iterations (MuJoCo's default), 4 = Newton with 8
+// iterations (converged; our default before 2026-12-02), 5 = PGS with 4 iterations.
 #include <benchmark/benchmark.h>
 #include <stdlib.h>
 
@@ -34,6 +36,11 @@ static void BM_HumanoidControlStep(benchmark::State& state) {
   if (variant == 1) ho.euler = false;
   if (variant == 2) ho.self_collision = true;
   if (variant == 3) ho.solver_iterations = 100;
+  if (variant == 4) {
+    ho.solver = mjSOL_NEWTON;
+    ho.solver_iterations = 8;
+  }
+  if (variant == 5) ho.solver_iterations = 4;
   auto h = Humanoid::create(ho);
   const int N = 8;
   VecEnv venv(h, N);
@@ -74,7 +81,13 @@ static double thread_cpu_s() {
 }
 
 static void BM_EnvStepUndisturbed(benchmark::State& state) {
-  auto h = Humanoid::create();
+  HumanoidOptions ho;  // variant as in BM_HumanoidControlStep (0 = ours, 4 = Newton 8)
+  if (state.range(0) == 4) {
+    ho.solver = mjSOL_NEWTON;
+    ho.solver_iterations = 8;
+  }
+  if (state.range(0) == 5) ho.solver_iterations = 4;
+  auto h = Humanoid::create(ho);
   // T2M_SIM_BENCH_CYCLES=1 makes it short enough for valgrind --tool=callgrind (instructions per step, docs/SIM.md).
   const char* cycles_env = std::getenv("T2M_SIM_BENCH_CYCLES");
   const int N = 8, kCycle = 60, kCycles = cycles_env ? std::max(1, std::atoi(cycles_env)) : 10;
@@ -108,7 +121,7 @@ static void BM_EnvStepUndisturbed(benchmark::State& state) {
   double load[1] = {0};
   if (getloadavg(load, 1) == 1) state.counters["load1"] = load[0];
 }
-BENCHMARK(BM_EnvStepUndisturbed)->Iterations(1)->UseRealTime()->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_EnvStepUndisturbed)->ArgName("variant")->Arg(0)->Arg(4)->Arg(5)->Iterations(1)->UseRealTime()->Unit(benchmark::kMillisecond);
 
 BENCHMARK(BM_HumanoidControlStep)
     ->ArgNames({"threads", "variant"})
@@ -117,6 +130,9 @@ BENCHMARK(BM_HumanoidControlStep)
     ->Args({1, 1})
     ->Args({1, 2})
     ->Args({1, 3})
+    ->Args({1, 4})
+    ->Args({2, 4})
+    ->Args({1, 5})
     ->UseRealTime()
     ->MinTime(2.0)
     ->Unit(benchmark::kMillisecond);

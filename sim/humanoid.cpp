@@ -154,15 +154,19 @@ std::vector<float> humanoid_offsets() {
 }
 
 std::string humanoid_mjcf(const HumanoidOptions& opt) {
-  if (opt.solver_iterations < 1 || !(opt.gain_scale > 0) || !(opt.floor_friction > 0))
-    throw Error("humanoid_mjcf: bad options (iterations " + std::to_string(opt.solver_iterations) + ", gain_scale " +
-                num(opt.gain_scale) + ", friction " + num(opt.floor_friction) + ")");
+  const char* solver = opt.solver == mjSOL_PGS ? "PGS" : opt.solver == mjSOL_NEWTON ? "Newton"
+                       : opt.solver == mjSOL_CG   ? "CG"
+                                                  : nullptr;
+  if (!solver || opt.solver_iterations < 1 || !(opt.gain_scale > 0) || !(opt.floor_friction > 0))
+    throw Error("humanoid_mjcf: bad options (solver " + std::to_string(opt.solver) + ", iterations " +
+                std::to_string(opt.solver_iterations) + ", gain_scale " + num(opt.gain_scale) + ", friction " +
+                num(opt.floor_friction) + ")");
   const auto& s = humanoid_joint_spec();
   std::ostringstream x;
   x << "<mujoco model=\"t2m_humanoid\">\n"
     << "  <compiler angle=\"radian\" inertiafromgeom=\"true\"/>\n"
     << "  <option timestep=\"" << fmt_dt() << "\" integrator=\"" << (opt.euler ? "Euler" : "implicit")
-    << "\" solver=\"Newton\" iterations=\"" << opt.solver_iterations << "\" tolerance=\"1e-8\""
+    << "\" solver=\"" << solver << "\" iterations=\"" << opt.solver_iterations << "\" tolerance=\"1e-8\""
     << (opt.self_collision ? "" : " collision=\"predefined\"") << "/>\n"
     << "  <size njmax=\"400\" nconmax=\"100\"/>\n"
     << "  <visual><quality shadowsize=\"2048\"/><map znear=\"0.01\"/></visual>\n"

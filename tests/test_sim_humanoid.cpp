@@ -110,6 +110,9 @@ TEST(SimHumanoid, BadModelInputsThrow) {
   HumanoidOptions bad;
   bad.solver_iterations = 0;
   EXPECT_THROW(humanoid_mjcf(bad), t2m::Error);
+  HumanoidOptions bad_solver;
+  bad_solver.solver = 99;
+  EXPECT_THROW(humanoid_mjcf(bad_solver), t2m::Error);
 }
 
 TEST(SimHumanoid, FileRoundTrip) {
