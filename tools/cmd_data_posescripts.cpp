@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "models/promotion/planner.h"
 #include "models/promotion/pose.h"
 #include "models/promotion/posecodes.h"
 #include "models/promotion/posture_script_set.h"
@@ -20,7 +21,7 @@ using t2m::Error;
 namespace pm = t2m::promotion;
 
 struct Args {
-  std::string split = "test", out, data_dir, cache_dir;
+  std::string split = "test", out, data_dir, cache_dir, plan, table = "models/checkpoints/promotion_planner.json";
   int limit = 5, keys = pm::kDefaultKeyFrames, threads = 0;
   bool mirror = false, stats = false;
 };
@@ -46,7 +47,20 @@ void print_stats(const pm::PostureScriptSet& s) {
   std::printf("mean script length: %.1f words\n", s.size() ? words / s.size() : 0.0);
 }
 
+// --plan: the rule/template planner's clauses and key-frame scripts for one prompt (no data needed).
+void run_plan(const Args& a) {
+  const pm::PlannerTable t = pm::load_planner_table(a.table);
+  const pm::Plan p = pm::plan_postures(t, a.plan, a.keys);
+  for (const auto& c : p.clauses)
+    std::printf("clause \"%s\": content %s, style %s, entry \"%s\"%s, %d key frames (similarity %.3f)\n",
+                c.text.c_str(), c.content.empty() ? "(none: neutral pose)" : c.content.c_str(),
+                c.style.empty() ? "-" : c.style.c_str(), c.entry.c_str(), c.mirrored ? ", mirrored" : "", c.frames,
+                c.score);
+  for (size_t i = 0; i < p.scripts.size(); ++i) std::printf("F%zu: %s\n", i + 1, p.scripts[i].c_str());
+}
+
 void run(const Args& a) {
+  if (!a.plan.empty()) return run_plan(a);
   if (a.limit < 0) throw Error("data posescripts: --limit must be >= 0, got " + std::to_string(a.limit));
   if (a.keys < 1) throw Error("data posescripts: --keys must be >= 1, got " + std::to_string(a.keys));
   if (a.threads > 0) t2m::set_num_threads(a.threads);
@@ -82,6 +96,8 @@ void add(CLI::App& app) {
   c->add_flag("--mirror", a->mirror, "also the mirrored clips");
   c->add_flag("--stats", a->stats, "print how often every posecode category fires");
   c->add_option("--out", a->out, "write every item as JSON lines");
+  c->add_option("--plan", a->plan, "instead: print the planner's key-frame scripts for this prompt");
+  c->add_option("--table", a->table, "planner table for --plan (default models/checkpoints/promotion_planner.json)");
   c->add_option("--data", a->data_dir, "Data directory (see data prepare)");
   c->add_option("--cache", a->cache_dir, "Cache directory (see data prepare)");
   c->add_option("--threads", a->threads, "threads (default: all)");
