@@ -6,6 +6,7 @@
 // when the run is complete).
 // --set keys: width, layers, heads, mlp_ratio, window (frames), cond_dropout, guidance, sample_steps,
 //   paraphrases, text (text encoder checkpoint).
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -76,6 +77,7 @@ void train_diffusion_variant(const VariantTrainArgs& a, cs::Conditioning cond) {
   tc.batch = a.batch ? a.batch : 16;
   if (a.lr > 0) tc.lr = a.lr;
   tc.save_every = a.save_every ? a.save_every : 25;
+  tc.warmup = std::min<int64_t>(tc.warmup, tc.steps / 10);
   tc.stop_at = a.stop_at;
   tc.seed = a.seed;
   tc.validate();
