@@ -45,7 +45,7 @@ struct Args {
   t2m::cli::TextDataOptions data;
   std::string out, split = "test", checkpoints = "models/checkpoints", gen, vbb, text, bfm;
   std::string evaluator = "models/checkpoints/evaluator.t2mckpt", label;
-  t2b::EvalGenOptions opt;
+  t2b::EvalGenOptions opt = [] { t2b::EvalGenOptions o; o.gen.steps = 0; return o; }();
   int max_clips = 0;
   bool tracking = false;
   t2m::eval::EvalProtocol protocol;
@@ -117,6 +117,7 @@ void run(Args a) {
     if (!a.text.empty()) paths.text = a.text;
     if (!a.bfm.empty()) paths.bfm = a.bfm;
     auto models = t2b::load_text2bfm(paths);
+    if (a.opt.gen.steps == 0) a.opt.gen.steps = models.gen.objective == "diffusion" ? 50 : 16;
     for (const auto& w : models.warnings) std::fprintf(stderr, "eval text2bfm: warning: %s\n", w.c_str());
     std::vector<t2b::EvalItem> items;
     for (int i : pick)
@@ -137,9 +138,11 @@ void run(Args a) {
              {{"text", s.text_s}, {"sample", s.sample_s}, {"decode", s.decode_s}, {"rollout", s.rollout_s}}},
              {"fell", s.fell}, {"mean_first_fall_s", s.mean_first_fall_s},
              {"checkpoints", {{"text", paths.text}, {"vbb", paths.vbb}, {"gen", paths.gen}, {"bfm", paths.bfm}}},
-             {"cfg", a.opt.gen.cfg}, {"steps", a.opt.gen.steps}, {"seed", a.opt.seed},
+             {"objective", models.gen.objective}, {"cfg", a.opt.gen.cfg}, {"steps", a.opt.gen.steps}, {"seed", a.opt.seed},
              {"mm_prompts", a.opt.mm_prompts}, {"samples", a.opt.samples}};
-    what = "Text2BFM generations (" + paths.gen + ", cfg " + std::to_string(a.opt.gen.cfg) + ", " +
+    char cfg[32];
+    std::snprintf(cfg, sizeof cfg, "%g", a.opt.gen.cfg);
+    what = "Text2BFM generations (" + paths.gen + ", " + models.gen.objective + ", cfg " + cfg + ", " +
            std::to_string(a.opt.gen.steps) + " steps) for the captions of the " + a.split + " split";
     std::printf("generated %lld motions (%lld control steps) in %.1f s wall, %.1f s CPU, %d thread(s); %lld fell "
                 "(mean first fall %.2f s)\n", (long long)s.generations, (long long)s.control_steps, s.wall_s,
@@ -206,7 +209,8 @@ void add_eval_text2bfm(CLI::App& app) {
   c->add_option("--bfm", a->bfm, "BFM policy checkpoint (default CHECKPOINTS/bfm_small.t2mckpt)");
   c->add_option("--evaluator", a->evaluator, "metric evaluator checkpoint")->capture_default_str();
   c->add_option("--cfg", a->opt.gen.cfg, "classifier-free guidance weight w")->capture_default_str();
-  c->add_option("--steps", a->opt.gen.steps, "sampler steps")->capture_default_str();
+  c->add_option("--steps", a->opt.gen.steps, "sampler steps (0: 16 Euler steps for a flow generator, 50 DDIM "
+                 "steps for a diffusion one)")->capture_default_str();
   c->add_option("--seed", a->opt.seed, "seed of the generations (per clip and sample)")->capture_default_str();
   c->add_option("--mm-prompts", a->opt.mm_prompts, "prompts with extra samples (MultiModality)")
       ->capture_default_str();
