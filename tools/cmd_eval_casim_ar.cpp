@@ -1,10 +1,10 @@
 // cmd_eval_casim_ar.cpp — `t2m eval casim-ar --cond cls|tok --out DIR`: the text-to-motion table row of the
 // autoregressive CASIM baseline on a data split with the `t2m eval motions` protocol (docs/CASIM.md).
-//   t2m eval casim-ar --cond tok --out DIR [--split test] [--checkpoints D] [--compose N] [--length gt|end]
+//   t2m eval casim-ar --cond tok --out DIR [--split test] [--checkpoints D] [--compose N] [--length gt|end] [--max-frames 128]
 //                     [--mm-prompts 32] [--samples 10] [--seed 0] [--runs 20] [--threads T]
 // For every clip of the split (sorted by name) the real-motion row's caption (make_caption(labels, seed 7, index 0))
-// is generated with casim::ArGenerator (batches of 32 prompts): --length gt (default) at the clip's length
-// (round(frames / 4) tokens, at most 48 = 6.4 s, as the diffusion rows get the clip's length), --length end: the
+// is generated with casim::ArGenerator (batches of 32 prompts): --length gt (default) at the clip's length capped at
+// --max-frames (round(frames / 4) tokens; the protocol of `t2m eval casim` for the diffusion rows), --length end: the
 // GPT's end token decides. The first --mm-prompts captions get --samples samples (MultiModality). --compose N:
 // instead the N two-clause clips "A, then B" of models/data/compose_samples.h made from the split's clips (seed
 // 7), generated from their composed captions at their length (capped at 48 tokens) and scored against the
@@ -43,7 +43,7 @@ struct Args {
   std::string out, cond = "tok", split = "test", checkpoints = "models/checkpoints", length = "gt";
   std::string evaluator = "models/checkpoints/evaluator.t2mckpt";
   int compose = 0;
-  int64_t mm_prompts = 32, samples = 10;
+  int64_t mm_prompts = 32, samples = 10, max_frames = 128;
   uint64_t seed = 0;
   t2m::eval::EvalProtocol protocol;
 };
@@ -57,8 +57,8 @@ std::string fmt_ci(const t2m::eval::MeanCI& v) {
 void run(Args a) {
   const cs::ArCond cond = cs::ar_cond_from_name(a.cond);
   if (a.length != "gt" && a.length != "end") throw Error("eval casim-ar: --length must be gt or end, got " + a.length);
-  if (a.compose < 0 || a.mm_prompts < 0 || a.samples < 2 || a.protocol.runs < 1)
-    throw Error("eval casim-ar: --compose, --mm-prompts >= 0, --samples >= 2, --runs >= 1");
+  if (a.compose < 0 || a.mm_prompts < 0 || a.samples < 2 || a.protocol.runs < 1 || a.max_frames < 4)
+    throw Error("eval casim-ar: --compose, --mm-prompts >= 0, --samples >= 2, --runs >= 1, --max-frames >= 4");
   if (a.data.threads > 0) t2m::set_num_threads(a.data.threads);
   if (!fs::exists(a.evaluator)) throw Error("eval casim-ar: evaluator checkpoint '" + a.evaluator + "' not found");
   const auto split = t2m::data::split_from_name(a.split);
@@ -93,7 +93,9 @@ void run(Args a) {
   // Batches of 32 jobs with the same token count (gt) or any (end); every batch has its own seeded Generator.
   std::vector<size_t> order(jobs.size());
   for (size_t j = 0; j < jobs.size(); ++j) order[j] = j;
-  auto tokens_of = [&](const Job& j) { return a.length == "gt" ? gen.tokens_for_seconds(frames[j.cap] / 30.0) : 0; };
+  auto tokens_of = [&](const Job& j) {
+    return a.length == "gt" ? gen.tokens_for_seconds((double)std::min(frames[j.cap], a.max_frames) / 30.0) : int64_t{0};
+  };
   std::stable_sort(order.begin(), order.end(), [&](size_t x, size_t y) { return tokens_of(jobs[x]) < tokens_of(jobs[y]); });
   size_t done = 0;
   for (size_t s = 0, batch_id = 0; s < order.size(); ++batch_id) {
@@ -182,6 +184,8 @@ void add_eval_casim_ar(CLI::App& app) {
       ->capture_default_str();
   c->add_option("--evaluator", a->evaluator, "metric evaluator checkpoint")->capture_default_str();
   c->add_option("--length", a->length, "gt: the clips' lengths; end: the GPT's end token")->capture_default_str();
+  c->add_option("--max-frames", a->max_frames, "cap of the clip lengths with --length gt (the evaluator scores "
+                 "centred 128-frame crops; as `t2m eval casim`)")->capture_default_str();
   c->add_option("--compose", a->compose, "score N composed two-clause clips of the split instead (0 = off)")
       ->capture_default_str();
   c->add_option("--mm-prompts", a->mm_prompts, "prompts with extra samples (MultiModality)")->capture_default_str();
