@@ -85,10 +85,14 @@ void print_row(const char* split, const tb::VbbEvalResult& r, const char* how = 
 void run_train_vbb(TrainVbbArgs a, const std::string& cmdline) {
   const auto t_start = clock_type::now();
   if (a.threads > 0) t2m::set_num_threads(a.threads);
-  if (a.compression != 1 && a.compression != 4 && a.compression != 8 && a.compression != 16)
+  // --avg-pool alone (no --export-pool) scores any pooling length c >= 1 dividing --window (c = window: one mean
+  // per window, closest to the paper's whole-clip m_avg); everything else needs a VBB compression.
+  const bool any_c = a.avg_pool && a.export_pool.empty() && a.compression >= 1;
+  if (!any_c && a.compression != 1 && a.compression != 4 && a.compression != 8 && a.compression != 16)
     throw Error("train vbb: --compression must be 1, 4, 8 or 16, got " + std::to_string(a.compression));
+  if (any_c && a.cfg.window % a.compression != 0) a.cfg.window = a.compression;
   const int64_t in_dim = a.cfg.vbb.in_dim;
-  {
+  if (!any_c) {
     const tb::VbbConfig c = tb::VbbConfig::with_compression(a.compression, in_dim);
     a.cfg.vbb.levels = c.levels;
   }
