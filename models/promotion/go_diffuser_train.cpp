@@ -1,0 +1,129 @@
+// go_diffuser_train.cpp — the resumable DDPM training loop of the go-diffuser.
+#include "models/promotion/go_diffuser_train.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+
+#include "models/promotion/pose.h"
+#include "nn/grad_utils.h"
+#include "nn/lr_schedule.h"
+#include "nn/optim_adamw.h"
+#include "nn/progress.h"
+#include "nn/train_log.h"
+#include "nn/train_state.h"
+
+namespace t2m::promotion {
+
+nlohmann::json GoTrainConfig::to_json() const {
+  return {{"steps", steps}, {"batch", batch}, {"lr", lr}, {"weight_decay", weight_decay}, {"warmup", warmup},
+          {"seed", seed}};
+}
+
+void GoTrainConfig::validate() const {
+  if (steps < 1 || batch < 1 || !(lr > 0) || weight_decay < 0 || warmup < 0 || warmup >= steps || save_every < 1 ||
+      stop_at < 0)
+    throw Error("go train: bad config " + to_json().dump() + " (steps, batch, save_every >= 1, lr > 0, "
+                "0 <= warmup < steps)");
+}
+
+void batch_key_poses(const Tensor& x, const std::vector<int>& lengths, int64_t K, Tensor* keys, Tensor* key_frames) {
+  const int64_t B = x.size(0), T = x.size(1), D = x.size(2);
+  if ((int64_t)lengths.size() != B || D != data::kFeatureDim)
+    throw Error("go train: batch_key_poses needs x (B, T, 257) and B lengths, got " + shape_str(x.shape()) + " and " +
+                std::to_string(lengths.size()));
+  const Tensor xc = x.to(DType::f32).contiguous();
+  const float* px = xc.data<float>();
+  std::vector<float> kp((size_t)(B * K * kPoseDim));
+  std::vector<int64_t> kf((size_t)(B * K));
+  for (int64_t b = 0; b < B; ++b) {
+    const int len = std::max(1, std::min<int>(lengths[b], (int)T));
+    const std::vector<int> f = key_frame_indices(len, (int)K);
+    for (int64_t i = 0; i < K; ++i) {
+      kf[b * K + i] = f[i];
+      pose_from_features(px + (b * T + f[i]) * D, kp.data() + (b * K + i) * kPoseDim);
+    }
+  }
+  *keys = Tensor::from_vector(kp, {B, K, kPoseDim});
+  *key_frames = Tensor::from_vector(kf, {B, K});
+}
+
+GoTrainResult train_go_diffuser(GoDiffuser& m, const std::vector<data::MotionClip>& clips,
+                                const data::FeatureStats& stats, const GoTrainConfig& cfg, const GoTrainPaths& paths,
+                                bool resume, const std::string& label) {
+  cfg.validate();
+  if (clips.empty()) throw Error("go train: no training clips");
+  const auto t0 = std::chrono::steady_clock::now();
+  m.train();
+  const nn::NamedParams params = m.named_parameters();
+  nn::AdamWOptions ao;
+  ao.lr = cfg.lr;
+  ao.weight_decay = cfg.weight_decay;
+  ao.no_decay = nn::no_decay_1d;
+  nn::AdamW opt(params, ao);
+  Generator noise_rng(cfg.seed * 3 + 21), drop_rng(cfg.seed * 3 + 22);
+  data::LoaderConfig lc;
+  lc.batch_size = (int)cfg.batch;
+  lc.window = (int)m.config().frames;
+  lc.seed = cfg.seed;
+  lc.drop_last = true;
+  data::MotionLoader loader(&clips, stats, lc);
+  const nlohmann::json config = {{"train", cfg.to_json()}, {"model", m.config().to_json()},
+                                 {"clips", (int64_t)clips.size()}};
+  nn::TrainState ts(params, config);
+  ts.optimizer(opt).generator("noise", noise_rng).generator("drop", drop_rng);
+  if (resume && std::filesystem::exists(paths.state)) ts.load(paths.state);
+  loader.start_epoch(ts.epoch);
+  data::Batch b;
+  for (int64_t i = 0; i < ts.cursor; ++i) loader.next(b);  // replay the epoch up to the saved position
+  const int64_t end = cfg.stop_at > 0 ? std::min(cfg.stop_at, cfg.steps) : cfg.steps;
+  const auto sched = nn::LrSchedule::warmup_cosine(cfg.lr, cfg.warmup, cfg.steps, cfg.lr / 10);
+  nn::TrainLog log(paths.log, ts.step);
+  nn::ProgressOptions po;
+  po.start = ts.step;
+  nn::Progress bar(cfg.steps, label, po);
+  while (ts.step < end) {
+    if (!loader.next(b)) {
+      loader.start_epoch(++ts.epoch);
+      ts.cursor = 0;
+      if (!loader.next(b)) throw Error("go train: fewer clips than one batch (" + std::to_string(clips.size()) + ")");
+    }
+    ++ts.cursor;
+    opt.set_lr(sched.at(ts.step));
+    opt.zero_grad();
+    Tensor keys, key_frames;
+    batch_key_poses(b.x, b.length, m.config().keys, &keys, &key_frames);
+    const Tensor t = m.schedule().sample_steps(b.size(), noise_rng);
+    const Tensor eps = rand_normal(b.x.shape(), noise_rng);
+    const Tensor keep = m.sample_key_keep(b.size(), drop_rng);
+    ag::Variable loss = go_diffuser_loss(m, b.x, b.mask, t, eps, keys, key_frames, keep);
+    loss.backward();
+    const double l = loss.item();
+    const double gn = nn::clip_grad_norm(params, 1.0);
+    if (!std::isfinite(gn)) nn::check_finite_grads(params);
+    opt.step();
+    log.write({{"step", ts.step + 1}, {"loss", l}, {"lr", opt.lr()}, {"grad_norm", gn}});
+    bar.update(ts.step + 1, {{"loss", l}});
+    if (++ts.step % cfg.save_every == 0 || ts.step == end) ts.save(paths.state);
+  }
+  bar.finish();
+  m.eval();
+  if (!paths.svg.empty() && std::filesystem::exists(paths.log)) {
+    nn::SvgPlotOptions so;
+    so.keys = {"loss"};
+    so.log_y = true;
+    so.title = "go-diffuser: x0 DDPM loss (train split windows)";
+    try {
+      nn::write_loss_svg(paths.log, paths.svg, so);
+    } catch (const Error&) {
+    }
+  }
+  GoTrainResult r;
+  r.steps = ts.step;
+  r.final_loss = bar.smoothed("loss");
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return r;
+}
+
+}  // namespace t2m::promotion
