@@ -16,6 +16,9 @@
 //   uniform segments, compose = true: one program per clause and compose_bounds), features of s_1..s_T
 //   (eval_generation.h), segments embedded by the evaluator (centred crops), clauses embedded as texts.
 //   Parallel over prompts with `jobs` threads (results independent of jobs).
+// evaluate_real_segments(evaluator, prompts, clips, frames_per_clause): the metric's ceiling on real motion: segment n
+//   of a prompt = the centred crop of frames_per_clause frames of its n-th source clip (the whole clip if shorter),
+//   no generation; Order Accuracy and MM-Dist as above, Transition not computed (separate clips: NaN).
 // Errors (t2m::Error "compose eval: ..."): N < 2, count < 1, fewer than N distinct content labels, no valid
 //   draw after 100 attempts, frames_per_clause < 1; pipeline and metric errors pass through.
 #pragma once
@@ -57,5 +60,8 @@ struct ComposeRow {
 
 ComposeRow evaluate_compose(Text2BfmModels& m, const text::RetrievalBundle& evaluator,
                             const std::vector<ComposePrompt>& prompts, const ComposeEvalOptions& opt, bool compose);
+
+ComposeRow evaluate_real_segments(const text::RetrievalBundle& evaluator, const std::vector<ComposePrompt>& prompts,
+                                  const std::vector<data::MotionClip>& clips, int64_t frames_per_clause);
 
 }  // namespace t2m::text2bfm
