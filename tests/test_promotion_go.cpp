@@ -13,6 +13,7 @@
 #include "models/data/loader.h"
 #include "models/promotion/go_diffuser.h"
 #include "models/promotion/go_diffuser_checkpoint.h"
+#include "models/promotion/go_diffuser_eval.h"
 #include "models/promotion/go_diffuser_train.h"
 #include "models/promotion/pose.h"
 #include "nn/train_log.h"
@@ -170,6 +171,31 @@ TEST(GoDiffuser, TrainsResumablyAndGeneratesFromKeyPoses) {
   data::denormalize_features(raw, back.stats);
   EXPECT_EQ(data::features_to_positions(raw).size(), 16u * 21 * 3);
   fs::remove_all(dir);
+}
+
+// APE / AVE: zero for identical motions; a constant height offset of every joint gives APE = offset (root, local,
+// global), 0 trajectory error, AVE 0; bad inputs throw.
+TEST(GoDiffuserEval, ApeAveValues) {
+  const auto clip = walk_clip()[0];
+  const std::vector<float>& a = clip.features;
+  auto r0 = ape_ave({&a}, {&a});
+  EXPECT_EQ(r0.ape_global, 0.0);
+  EXPECT_EQ(r0.ave_global, 0.0);
+  std::vector<float> b = a;
+  for (int t = 0; t < clip.frames; ++t) {
+    b[(size_t)t * 257 + data::kFeatRootHeight] += 0.1f;
+    for (int j = 0; j < 20; ++j) b[(size_t)t * 257 + data::kFeatLocalPos + 3 * j + 2] += 0.1f;
+  }
+  const auto r = ape_ave({&a, &a}, {&b, &b});
+  EXPECT_NEAR(r.ape_root, 0.1, 1e-5);
+  EXPECT_NEAR(r.ape_traj, 0.0, 1e-6);
+  EXPECT_NEAR(r.ape_local, 0.1, 1e-5);
+  EXPECT_NEAR(r.ape_global, 0.1, 1e-5);
+  EXPECT_NEAR(r.ave_global, 0.0, 1e-6);
+  EXPECT_EQ(r.samples, 2);
+  std::vector<float> short_b(b.begin(), b.begin() + 257 * 10);
+  EXPECT_THROW(ape_ave({&a}, {&short_b}), Error);
+  EXPECT_THROW(ape_ave({}, {}), Error);
 }
 
 }  // namespace
