@@ -1,5 +1,5 @@
-// conv1d.cpp — per chunk of samples (chunk_samples: the chunk's column matrix stays in cache), im2col into
-// col (Cin*K, nb*To) with column index b*To + to, then
+// conv1d.cpp — k3 stride-1 shapes that pay go to Winograd (conv1d_winograd.cpp); the others, per chunk of samples
+// (chunk_samples: the chunk's column matrix stays in cache), im2col into col (Cin*K, nb*To), column b*To + to, then
 //   forward:  tmp (Cout, nb*To) = W (Cout, Cin*K) @ col;       out[b, co, to] = tmp[co, b*To + to] + bias[co]
 //   backward: dtmp (Cout, nb*To) = dout transposed to that layout; dbias[co] += row sums of dtmp
 //             dW (Cout, Cin*K) += dtmp @ col^T;  dcol (Cin*K, nb*To) = W^T @ dtmp;  dinp = col2im(dcol)
@@ -8,6 +8,7 @@
 #include <string>
 #include <utility>
 
+#include "tensor/fused/conv1d_winograd.h"
 #include "tensor/fused/kernel_util.h"
 #include "tensor/fused/scratch.h"
 #include "tensor/gemm.h"
@@ -53,6 +54,15 @@ std::pair<int64_t, int64_t> valid_outputs(int64_t off, const Conv1dShape& s, int
 // im2col's output is still in cache (L3) when the GEMM packs it, and col2im reads dcol from cache; at least one
 // sample. Depends on the shape only, so the summation order (and the result bits) is fixed per thread count.
 constexpr int64_t kColChunkElems = int64_t{1} << 20;  // 4 MB of float
+
+// Winograd tile for s (0: im2col), after the configuration checks of out_len().
+int winograd_tile(const Conv1dShape& s) {
+  switch (s.algo) {
+    case Conv1dAlgo::im2col: return 0;
+    case Conv1dAlgo::winograd: return conv1d_winograd_tile(s) ? conv1d_winograd_tile(s) : 4;
+    default: return conv1d_winograd_tile(s);
+  }
+}
 
 int64_t chunk_samples(const Conv1dShape& s, int64_t To) {
   const int64_t per = s.Cin * s.K * To;
@@ -123,6 +133,7 @@ void conv1d_forward(T* out, const T* inp, const T* weight, const T* bias, const 
   check_ptr(op, "out", out);
   check_ptr(op, "inp", inp);
   check_ptr(op, "weight", weight);
+  if (const int m = winograd_tile(s)) return conv1d_winograd_forward(out, inp, weight, bias, s, m);
   const int64_t CK = s.Cin * s.K, NB = chunk_samples(s, To);
   T* col = fused_scratch<T>(0, CK * NB * To);
   T* tmp = fused_scratch<T>(1, s.Cout * NB * To);
@@ -151,6 +162,8 @@ void conv1d_backward(T* dinp, T* dweight, T* dbias, const T* dout, const T* inp,
   check_ptr(op, "dout", dout);
   if (dweight) check_ptr(op, "inp", inp);
   if (dinp) check_ptr(op, "weight", weight);
+  if (const int m = winograd_tile(s))
+    return conv1d_winograd_backward(dinp, dweight, dbias, dout, inp, weight, s, m);
   const int64_t CK = s.Cin * s.K, NB = chunk_samples(s, To);
   T* col = fused_scratch<T>(0, CK * NB * To);
   T* dtmp = fused_scratch<T>(1, s.Cout * NB * To);

@@ -9,6 +9,8 @@
 // within 4 MB of float, at least 1, the whole batch for small shapes); dweight/dbias accumulate chunk by chunk.
 // Scratch (thread-local, scratch.h): slot 0 col (Cin*K * nb*To), slot 1 (Cout * nb*To) elements; the K=1,
 // stride=1, pad=0 case still uses both (the column matrix is then a copy of the input in (Cin, B*T) layout).
+// Algorithm: k = 3, stride 1 convolutions whose shape pays for it run Winograd F(m, 3) instead
+// (conv1d_winograd.h: 1/3 to 1/2 fewer multiply-adds); Conv1dShape::algo forces one path (tests, benchmarks).
 // Deterministic for a fixed thread count (every reduction has a fixed order).
 // Errors: t2m::Error for sizes < 1 (B may be 0), stride/dilation < 1, pad < 0, causal with pad != 0, To < 1,
 // null required pointers.
@@ -17,10 +19,13 @@
 
 namespace t2m::fused {
 
+enum class Conv1dAlgo { automatic, im2col, winograd };
+
 struct Conv1dShape {
   int64_t B = 1, Cin = 1, Cout = 1, T = 1, K = 1;
   int64_t stride = 1, dilation = 1, pad = 0;
   bool causal = false;
+  Conv1dAlgo algo = Conv1dAlgo::automatic;  // automatic: Winograd where conv1d_winograd_tile(s) != 0
   int64_t pad_left() const { return causal ? (K - 1) * dilation : pad; }
   int64_t pad_right() const { return causal ? 0 : pad; }
   int64_t out_len() const;  // To; throws Error when the configuration is invalid or To < 1

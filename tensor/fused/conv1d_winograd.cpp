@@ -1,0 +1,372 @@
+// conv1d_winograd.cpp — F(m, 3) in three steps per chunk of samples (the transformed matrices stay in cache):
+//   forward:  V[i] (Cin, N) = BT x_tile (input transform);  M[i] (Cout, N) = U[i] (Cout, Cin) @ V[i] for the
+//             m + 2 points i (one gemm_batched);  y_tile = AT M + bias (output transform);  U[i] = G w (per call)
+//   backward: dM[i] = AT^T dy_tile;  dU[i] += dM[i] @ V[i]^T, dw += G^T dU;  dV[i] = U[i]^T @ dM[i];
+//             dx_tile += BT^T dV (tiles overlap: accumulated in a padded row, then folded into x: the causal
+//             left pad adds into frame 0, zero padding drops)
+// N = tiles of the chunk, column b * nT + j; tiles are enumerated as in the header.
+#include "tensor/fused/conv1d_winograd.h"
+
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "tensor/fused/kernel_util.h"
+#include "tensor/fused/scratch.h"
+#include "tensor/gemm.h"
+
+namespace t2m::fused {
+
+namespace {
+
+// Lavin & Gray's matrices. F(2, 3): points 0, 1, -1 (and infinity).
+template <int M>
+struct Wino;
+template <>
+struct Wino<2> {
+  static constexpr int A = 4;
+  static constexpr double BT[4][4] = {{1, 0, -1, 0}, {0, 1, 1, 0}, {0, -1, 1, 0}, {0, 1, 0, -1}};
+  static constexpr double G[4][3] = {{1, 0, 0}, {0.5, 0.5, 0.5}, {0.5, -0.5, 0.5}, {0, 0, 1}};
+  static constexpr double AT[2][4] = {{1, 1, 1, 0}, {0, 1, -1, -1}};
+};
+// F(4, 3): points 0, 1, -1, 2, -2 (and infinity).
+template <>
+struct Wino<4> {
+  static constexpr int A = 6;
+  static constexpr double BT[6][6] = {{4, 0, -5, 0, 1, 0},  {0, -4, -4, 1, 1, 0}, {0, 4, -4, -1, 1, 0},
+                                      {0, -2, -1, 2, 1, 0}, {0, 2, -1, -2, 1, 0}, {0, 4, 0, -5, 0, 1}};
+  static constexpr double G[6][3] = {{1.0 / 4, 0, 0},
+                                     {-1.0 / 6, -1.0 / 6, -1.0 / 6},
+                                     {-1.0 / 6, 1.0 / 6, -1.0 / 6},
+                                     {1.0 / 24, 1.0 / 12, 1.0 / 6},
+                                     {1.0 / 24, -1.0 / 12, 1.0 / 6},
+                                     {0, 0, 1}};
+  static constexpr double AT[4][6] = {
+      {1, 1, 1, 1, 1, 0}, {0, 1, -1, 2, -2, 0}, {0, 1, 1, 4, 4, 0}, {0, 1, -1, 8, -8, 1}};
+};
+
+int64_t tiles_per_sample(int64_t To, int64_t d, int m) {
+  const int64_t span = m * d, rem = To % span;
+  return d * (To / span) + (rem < d ? rem : d);
+}
+
+// Samples per chunk: the larger of V and M (A x max(Cin, Cout) x nb * nT elements) within 4 MB of float.
+constexpr int64_t kChunkElems = int64_t{1} << 20;
+int64_t chunk_samples(const Conv1dShape& s, int A, int64_t nT) {
+  const int64_t c = s.Cin > s.Cout ? s.Cin : s.Cout, per = A * c * nT;
+  const int64_t nb = kChunkElems / (per > 0 ? per : 1);
+  return nb < 1 ? 1 : (nb > s.B ? s.B : nb);
+}
+
+void check_shape(const char* op, const Conv1dShape& s) {
+  if (s.K != 3 || s.stride != 1)
+    throw Error(std::string(op) + ": Winograd F(m, 3) needs K == 3 and stride == 1, got K=" + std::to_string(s.K) +
+                " stride=" + std::to_string(s.stride));
+}
+
+int pick_tile(const Conv1dShape& s, int m) {
+  if (m == 0) {
+    m = conv1d_winograd_tile(s);
+    return m ? m : 4;
+  }
+  if (m != 2 && m != 4) throw Error("conv1d_winograd: tile m must be 2 or 4, got " + std::to_string(m));
+  return m;
+}
+
+// Per-call shape data shared by the steps.
+struct Geo {
+  int64_t To, nT, d, padL, N;  // N: tiles in the current chunk
+};
+
+// U[i] (Cout, Cin) = sum_k G[i][k] w[co, ci, k].
+template <typename T, int M>
+void weight_transform(T* U, const T* w, const Conv1dShape& s) {
+  using W = Wino<M>;
+  const int64_t CC = s.Cout * s.Cin;
+  const int nt = fused_threads(W::A * CC);
+#pragma omp parallel for num_threads(nt) schedule(static) if (nt > 1)
+  for (int64_t c = 0; c < CC; ++c) {
+    const T g0 = w[3 * c], g1 = w[3 * c + 1], g2 = w[3 * c + 2];
+    for (int i = 0; i < W::A; ++i) U[i * CC + c] = (T)W::G[i][0] * g0 + (T)W::G[i][1] * g1 + (T)W::G[i][2] * g2;
+  }
+}
+
+// dw[co, ci, k] += sum_i G[i][k] dU[i][co, ci].
+template <typename T, int M>
+void weight_transform_backward(T* dw, const T* dU, const Conv1dShape& s) {
+  using W = Wino<M>;
+  const int64_t CC = s.Cout * s.Cin;
+  const int nt = fused_threads(W::A * CC);
+#pragma omp parallel for num_threads(nt) schedule(static) if (nt > 1)
+  for (int64_t c = 0; c < CC; ++c)
+    for (int k = 0; k < 3; ++k) {
+      T acc = 0;
+      for (int i = 0; i < W::A; ++i) acc += (T)W::G[i][k] * dU[i * CC + c];
+      dw[3 * c + k] += acc;
+    }
+}
+
+// V[i][ci, b * nT + j] = sum_k BT[i][k] xpad[b0 + b, ci, base_j + k d]. Each row is first copied into a padded
+// row (replicate/zero frames on the left, zeros on the right) so that tiles are read without bounds checks; tiles
+// are walked as (block q, residue r), j = d q + r, base = m d q + r (no division).
+template <typename T, int M>
+void input_transform(T* V, const T* inp, const Conv1dShape& s, const Geo& g, int64_t b0, int64_t nb) {
+  using W = Wino<M>;
+  const int64_t L = g.To + (W::A - 1) * g.d, ldv = s.Cin * g.N;  // padded frames any tile touches
+  const int nt = fused_threads(W::A * s.Cin * g.N);
+#pragma omp parallel num_threads(nt) if (nt > 1)
+  {
+    std::vector<T> xp((size_t)L);
+#pragma omp for collapse(2) schedule(static)
+    for (int64_t ci = 0; ci < s.Cin; ++ci)
+      for (int64_t b = 0; b < nb; ++b) {
+        const T* x = inp + ((b0 + b) * s.Cin + ci) * s.T;
+        const T left = s.causal ? x[0] : (T)0;
+        T* xpp = xp.data();
+        const int64_t nl = g.padL < L ? g.padL : L, nx = L - nl < s.T ? L - nl : s.T;
+        for (int64_t p = 0; p < nl; ++p) xpp[p] = left;
+        std::memcpy(xpp + nl, x, (size_t)nx * sizeof(T));
+        for (int64_t p = nl + nx; p < L; ++p) xpp[p] = 0;
+        T* v = V + ci * g.N + b * g.nT;
+        if (g.d == 1) {  // tile j reads xp[M j + k]
+          for (int64_t j = 0; j < g.nT; ++j) {
+            const T* src = xpp + M * j;
+            for (int i = 0; i < W::A; ++i) {
+              T acc = 0;
+              for (int k = 0; k < W::A; ++k) acc += (T)W::BT[i][k] * src[k];
+              v[i * ldv + j] = acc;
+            }
+          }
+          continue;
+        }
+        for (int64_t j0 = 0, q = 0; j0 < g.nT; j0 += g.d, ++q) {
+          const int64_t rn = g.nT - j0 < g.d ? g.nT - j0 : g.d;
+          const T* src = xpp + M * g.d * q;
+          T* dst = v + j0;
+          for (int64_t r = 0; r < rn; ++r) {
+            T xv[W::A];
+            for (int k = 0; k < W::A; ++k) xv[k] = src[r + k * g.d];
+            for (int i = 0; i < W::A; ++i) {
+              T acc = 0;
+              for (int k = 0; k < W::A; ++k) acc += (T)W::BT[i][k] * xv[k];
+              dst[i * ldv + r] = acc;
+            }
+          }
+        }
+      }
+  }
+}
+
+// dinp[b0 + b, ci, :] = fold(sum over tiles of BT^T dV[:][ci, b * nT + j] placed at base_j + k d).
+template <typename T, int M>
+void input_transform_backward(T* dinp, const T* dV, const Conv1dShape& s, const Geo& g, int64_t b0, int64_t nb) {
+  using W = Wino<M>;
+  const int64_t L = g.To + (W::A - 1) * g.d;  // padded frames any tile touches (>= T + padL)
+  const int nt = fused_threads(W::A * s.Cin * g.N);
+#pragma omp parallel num_threads(nt) if (nt > 1)
+  {
+    std::vector<T> buf((size_t)L);
+#pragma omp for collapse(2) schedule(static)
+    for (int64_t ci = 0; ci < s.Cin; ++ci)
+      for (int64_t b = 0; b < nb; ++b) {
+        for (auto& e : buf) e = 0;
+        const T* dv = dV + ci * g.N + b * g.nT;
+        for (int64_t j0 = 0, q = 0; j0 < g.nT; j0 += g.d, ++q) {
+          const int64_t rn = g.nT - j0 < g.d ? g.nT - j0 : g.d;
+          T* dst = buf.data() + M * g.d * q;
+          for (int64_t r = 0; r < rn; ++r) {
+            T gi[W::A];
+            for (int i = 0; i < W::A; ++i) gi[i] = dv[i * s.Cin * g.N + j0 + r];
+            for (int k = 0; k < W::A; ++k) {
+              T acc = 0;
+              for (int i = 0; i < W::A; ++i) acc += (T)W::BT[i][k] * gi[i];
+              dst[r + k * g.d] += acc;
+            }
+          }
+        }
+        T* dx = dinp + ((b0 + b) * s.Cin + ci) * s.T;
+        for (int64_t t = 0; t < s.T; ++t) dx[t] = buf[(size_t)(t + g.padL)];
+        if (s.causal)
+          for (int64_t p = 0; p < g.padL; ++p) dx[0] += buf[(size_t)p];
+      }
+  }
+}
+
+// out[b0 + b, co, base_j + r d] = bias[co] + sum_i AT[r][i] Mx[i][co, b * nT + j] for the frames below To.
+template <typename T, int M>
+void output_transform(T* out, const T* Mx, const T* bias, const Conv1dShape& s, const Geo& g, int64_t b0,
+                      int64_t nb) {
+  using W = Wino<M>;
+  const int nt = fused_threads(W::A * s.Cout * g.N);
+#pragma omp parallel for collapse(2) num_threads(nt) schedule(static) if (nt > 1)
+  for (int64_t co = 0; co < s.Cout; ++co)
+    for (int64_t b = 0; b < nb; ++b) {
+      T* y = out + ((b0 + b) * s.Cout + co) * g.To;
+      const T bv = bias ? bias[co] : (T)0;
+      const T* mx = Mx + co * g.N + b * g.nT;
+      for (int64_t j0 = 0, q = 0; j0 < g.nT; j0 += g.d, ++q) {
+        const int64_t rn = g.nT - j0 < g.d ? g.nT - j0 : g.d;
+        for (int64_t rr = 0; rr < rn; ++rr) {
+          T mi[W::A];
+          for (int i = 0; i < W::A; ++i) mi[i] = mx[i * s.Cout * g.N + j0 + rr];
+          const int64_t base = M * g.d * q + rr;
+          for (int r = 0; r < M; ++r) {
+            const int64_t t = base + r * g.d;
+            if (t >= g.To) break;
+            T acc = bv;
+            for (int i = 0; i < W::A; ++i) acc += (T)W::AT[r][i] * mi[i];
+            y[t] = acc;
+          }
+        }
+      }
+    }
+}
+
+// dM[i][co, b * nT + j] = sum_r AT[r][i] dy[b0 + b, co, base_j + r d] (0 for frames at or past To).
+template <typename T, int M>
+void output_transform_backward(T* dM, const T* dout, const Conv1dShape& s, const Geo& g, int64_t b0, int64_t nb) {
+  using W = Wino<M>;
+  const int nt = fused_threads(W::A * s.Cout * g.N);
+#pragma omp parallel for collapse(2) num_threads(nt) schedule(static) if (nt > 1)
+  for (int64_t co = 0; co < s.Cout; ++co)
+    for (int64_t b = 0; b < nb; ++b) {
+      const T* dy = dout + ((b0 + b) * s.Cout + co) * g.To;
+      T* dm = dM + co * g.N + b * g.nT;
+      for (int64_t j0 = 0, q = 0; j0 < g.nT; j0 += g.d, ++q) {
+        const int64_t rn = g.nT - j0 < g.d ? g.nT - j0 : g.d;
+        for (int64_t rr = 0; rr < rn; ++rr) {
+          const int64_t base = M * g.d * q + rr;
+          T dr[M];
+          for (int r = 0; r < M; ++r) {
+            const int64_t t = base + r * g.d;
+            dr[r] = t < g.To ? dy[t] : (T)0;
+          }
+          for (int i = 0; i < W::A; ++i) {
+            T acc = 0;
+            for (int r = 0; r < M; ++r) acc += (T)W::AT[r][i] * dr[r];
+            dm[i * s.Cout * g.N + j0 + rr] = acc;
+          }
+        }
+      }
+    }
+}
+
+template <typename T, int M>
+void forward_m(T* out, const T* inp, const T* weight, const T* bias, const Conv1dShape& s) {
+  constexpr int A = Wino<M>::A;
+  Geo g{s.out_len(), 0, s.dilation, s.pad_left(), 0};
+  g.nT = tiles_per_sample(g.To, g.d, M);
+  const int64_t NB = chunk_samples(s, A, g.nT), CC = s.Cout * s.Cin;
+  T* U = fused_scratch<T>(2, A * CC);
+  T* V = fused_scratch<T>(0, A * s.Cin * NB * g.nT);
+  T* Mx = fused_scratch<T>(1, A * s.Cout * NB * g.nT);
+  weight_transform<T, M>(U, weight, s);
+  for (int64_t b0 = 0; b0 < s.B; b0 += NB) {
+    const int64_t nb = s.B - b0 < NB ? s.B - b0 : NB;
+    g.N = nb * g.nT;
+    input_transform<T, M>(V, inp, s, g, b0, nb);
+    gemm_batched(false, false, A, s.Cout, g.N, s.Cin, (T)1, U, s.Cin, CC, V, g.N, s.Cin * g.N, (T)0, Mx, g.N,
+                 s.Cout * g.N);
+    output_transform<T, M>(out, Mx, bias, s, g, b0, nb);
+  }
+}
+
+template <typename T, int M>
+void backward_m(T* dinp, T* dweight, T* dbias, const T* dout, const T* inp, const T* weight, const Conv1dShape& s) {
+  constexpr int A = Wino<M>::A;
+  Geo g{s.out_len(), 0, s.dilation, s.pad_left(), 0};
+  g.nT = tiles_per_sample(g.To, g.d, M);
+  const int64_t NB = chunk_samples(s, A, g.nT), CC = s.Cout * s.Cin;
+  if (dbias) {
+    const int nt = fused_threads(s.B * s.Cout * g.To);
+#pragma omp parallel for num_threads(nt) schedule(static) if (nt > 1)
+    for (int64_t co = 0; co < s.Cout; ++co) {
+      T part[16] = {};  // 16 partial sums: vectorisable, same order for any thread count
+      for (int64_t b = 0; b < s.B; ++b) {
+        const T* dy = dout + (b * s.Cout + co) * g.To;
+        int64_t t = 0;
+        for (; t + 16 <= g.To; t += 16)
+          for (int k = 0; k < 16; ++k) part[k] += dy[t + k];
+        for (; t < g.To; ++t) part[t % 16] += dy[t];
+      }
+      T sum = 0;
+      for (T v : part) sum += v;
+      dbias[co] += sum;
+    }
+  }
+  if (!dweight && !dinp) return;
+  T* U = fused_scratch<T>(2, A * CC);
+  T* dU = dweight ? fused_scratch<T>(3, A * CC) : nullptr;
+  T* V = fused_scratch<T>(0, A * s.Cin * NB * g.nT);  // V, then dV
+  T* dM = fused_scratch<T>(1, A * s.Cout * NB * g.nT);
+  if (dinp) weight_transform<T, M>(U, weight, s);
+  for (int64_t b0 = 0; b0 < s.B; b0 += NB) {
+    const int64_t nb = s.B - b0 < NB ? s.B - b0 : NB;
+    g.N = nb * g.nT;
+    output_transform_backward<T, M>(dM, dout, s, g, b0, nb);
+    if (dweight) {
+      input_transform<T, M>(V, inp, s, g, b0, nb);
+      gemm_batched(false, true, A, s.Cout, s.Cin, g.N, (T)1, dM, g.N, s.Cout * g.N, V, g.N, s.Cin * g.N,
+                   b0 == 0 ? (T)0 : (T)1, dU, s.Cin, CC);
+    }
+    if (dinp) {
+      gemm_batched(true, false, A, s.Cin, g.N, s.Cout, (T)1, U, s.Cin, CC, dM, g.N, s.Cout * g.N, (T)0, V, g.N,
+                   s.Cin * g.N);
+      input_transform_backward<T, M>(dinp, V, s, g, b0, nb);
+    }
+  }
+  if (dweight) weight_transform_backward<T, M>(dweight, dU, s);
+}
+
+}  // namespace
+
+int conv1d_winograd_tile(const Conv1dShape& s) {
+  const int64_t To = s.out_len();
+  if (s.K != 3 || s.stride != 1 || s.Cin < 8 || s.Cout < 8) return 0;
+  const int64_t c2 = 4 * tiles_per_sample(To, s.dilation, 2), c4 = 6 * tiles_per_sample(To, s.dilation, 4);
+  const int m = !s.causal && c4 <= c2 ? 4 : 2;  // causal: F(2, 3) only (exactly causal, see the header)
+  const int64_t cost = m == 4 ? c4 : c2;
+  return 10 * cost <= 8 * 3 * To ? m : 0;  // pays only below 80% of im2col's 3 * To multiply-adds per channel pair
+}
+
+template <typename T>
+void conv1d_winograd_forward(T* out, const T* inp, const T* weight, const T* bias, const Conv1dShape& s, int m) {
+  const char* op = "conv1d_winograd_forward";
+  s.out_len();
+  check_shape(op, s);
+  if (s.B == 0) return;
+  check_ptr(op, "out", out);
+  check_ptr(op, "inp", inp);
+  check_ptr(op, "weight", weight);
+  if (pick_tile(s, m) == 2)
+    forward_m<T, 2>(out, inp, weight, bias, s);
+  else
+    forward_m<T, 4>(out, inp, weight, bias, s);
+}
+
+template <typename T>
+void conv1d_winograd_backward(T* dinp, T* dweight, T* dbias, const T* dout, const T* inp, const T* weight,
+                              const Conv1dShape& s, int m) {
+  const char* op = "conv1d_winograd_backward";
+  s.out_len();
+  check_shape(op, s);
+  if (s.B == 0) return;
+  check_ptr(op, "dout", dout);
+  if (dweight) check_ptr(op, "inp", inp);
+  if (dinp) check_ptr(op, "weight", weight);
+  if (pick_tile(s, m) == 2)
+    backward_m<T, 2>(dinp, dweight, dbias, dout, inp, weight, s);
+  else
+    backward_m<T, 4>(dinp, dweight, dbias, dout, inp, weight, s);
+}
+
+template void conv1d_winograd_forward<float>(float*, const float*, const float*, const float*, const Conv1dShape&,
+                                             int);
+template void conv1d_winograd_forward<double>(double*, const double*, const double*, const double*,
+                                              const Conv1dShape&, int);
+template void conv1d_winograd_backward<float>(float*, float*, float*, const float*, const float*, const float*,
+                                              const Conv1dShape&, int);
+template void conv1d_winograd_backward<double>(double*, double*, double*, const double*, const double*,
+                                               const double*, const Conv1dShape&, int);
+
+}  // namespace t2m::fused
