@@ -46,14 +46,17 @@ void silu_backward(T* dx, const T* g, const T* x, int64_t n) {
 template <typename T>
 void dropout_forward(T* y, uint8_t* keep, const T* x, int64_t n, uint64_t seed, uint64_t base, double pkeep,
                      T scale) {
-  const int64_t nb = (n + 3) / 4;
+  constexpr int64_t kChunk = 64;  // Philox blocks generated at once (philox4x32_blocks)
+  const int64_t nb = (n + 3) / 4, nch = (nb + kChunk - 1) / kChunk;
   constexpr double k2m32 = 1.0 / 4294967296.0;
 #pragma omp parallel for schedule(static) num_threads(threads_for(n))
-  for (int64_t b = 0; b < nb; ++b) {
-    uint32_t w[4];
-    philox4x32(seed, base + (uint64_t)b, w);
-    for (int64_t i = 0, j = 4 * b; i < 4 && j < n; ++i, ++j) {
-      const bool k = (double)w[i] * k2m32 < pkeep;
+  for (int64_t ch = 0; ch < nch; ++ch) {
+    uint32_t w[4 * kChunk];
+    const int64_t b0 = ch * kChunk, cnt = nb - b0 < kChunk ? nb - b0 : kChunk;
+    philox4x32_blocks(seed, base + (uint64_t)b0, cnt, w);
+    const int64_t j0 = 4 * b0, j1 = 4 * (b0 + cnt) < n ? 4 * (b0 + cnt) : n;
+    for (int64_t j = j0; j < j1; ++j) {
+      const bool k = (double)w[j - j0] * k2m32 < pkeep;
       keep[j] = k;
       y[j] = k ? x[j] * scale : (T)0;
     }

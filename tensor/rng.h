@@ -27,6 +27,9 @@ void philox4x32(uint64_t seed, uint64_t counter, uint32_t out[4]);
 // The raw Philox4x32-10 bijection on a full 128-bit counter and 64-bit key (philox4x32 above uses
 // ctr = {lo32(counter), hi32(counter), 0, 0}, key = {lo32(seed), hi32(seed)}). For known-answer tests.
 void philox4x32_block(const uint32_t ctr[4], const uint32_t key[2], uint32_t out[4]);
+// Blocks for counters counter0 .. counter0 + nblocks - 1: out[4 b + i] = philox4x32(seed, counter0 + b)[i]
+// (4 * nblocks words). 16 counters per step with AVX-512 where the CPU has it, the scalar block otherwise.
+void philox4x32_blocks(uint64_t seed, uint64_t counter0, int64_t nblocks, uint32_t* out);
 // Counters per draw: f32 uniform/normal/bernoulli use one counter per 4 values, f64 uniform/normal and randint
 // one per 2 values, randperm(n) one per 2 swaps; the Generator advances by that many.
 
