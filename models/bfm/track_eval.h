@@ -7,6 +7,8 @@
 // fail_distance of the reference on every frame), MPJPE, root drift, fall, frames tracked.
 // All clips are stepped in lockstep so the policy runs on one batch per control step (OpenMP over the envs for
 // the physics); results do not depend on the thread count.
+// track_bfm's results carry the simulated trajectory (PdResult::simulated: qpos/qvel of frames 0..T-1, frame 0 =
+// the reference start), what `t2m eval text2bfm --tracking` scores.
 // PD baseline: sim::track_pd on the same clips (OpenMP over clips).
 // Action KL (Text2BFM Eq 21): per clip, KL(pi(.|s_t, z^hat_t) || pi(.|s_t, z_t)) averaged over the T-1 reference
 // states, with z from Eq 2 at L = track_window and z^hat from Eq 2 at another window L_hat (a sensitivity number
