@@ -8,7 +8,10 @@
 // GPT's end token decides. The first --mm-prompts captions get --samples samples (MultiModality). --compose N:
 // instead the N two-clause clips "A, then B" of models/data/compose_samples.h made from the split's clips (seed
 // 7), generated from their composed captions at their length (capped at 48 tokens) and scored against the
-// composed real clips (FID reference). DIR gets motions.json + .npy (models/eval/motion_dir_write.h) and eval.json.
+// composed real clips (FID reference). --reconstruct: instead of generating, the real clips (their centred
+// --max-frames crop, trimmed to a multiple of 4 frames) through the tokenizer (encode, nearest codes, decode): the
+// ceiling of the AR rows.
+// DIR gets motions.json + .npy (models/eval/motion_dir_write.h) and eval.json.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -43,6 +46,7 @@ struct Args {
   std::string out, cond = "tok", split = "test", checkpoints = "models/checkpoints", length = "gt";
   std::string evaluator = "models/checkpoints/evaluator.t2mckpt";
   int compose = 0;
+  bool reconstruct = false;
   int64_t mm_prompts = 32, samples = 10, max_frames = 128;
   uint64_t seed = 0;
   t2m::eval::EvalProtocol protocol;
@@ -77,8 +81,34 @@ void run(Args a) {
       frames.push_back(c.frames);
     }
   }
+  if (a.reconstruct) {  // the tokenizer's ceiling: real clips through VQ encode -> nearest codes -> decode
+    const cs::VqBundle vq = cs::load_vq(a.checkpoints + "/casim_vq.t2mckpt");
+    const int64_t f = vq.model->config().downsample();
+    std::vector<t2m::eval::MotionEntry> rec;
+    for (size_t i = 0; i < clips.size(); ++i) {
+      const int64_t T = (std::min<int64_t>(clips[i].frames, a.max_frames) / f) * f, s0 = (clips[i].frames - T) / 2;
+      if (T < f) continue;
+      std::vector<float> x(clips[i].features.begin() + s0 * 257, clips[i].features.begin() + (s0 + T) * 257);
+      t2m::data::normalize_features(x, vq.stats);
+      const t2m::Tensor ids = vq.model->tokenize(t2m::Tensor::from_vector(x, {1, T, 257}));
+      t2m::eval::MotionEntry e;
+      char fn[32];
+      std::snprintf(fn, sizeof fn, "%04zu.npy", i);
+      e.file = fn, e.caption = captions[i];
+      e.features = vq.model->detokenize(ids).to_vector<float>();
+      t2m::data::denormalize_features(e.features, vq.stats);
+      e.frames = T;
+      rec.push_back(std::move(e));
+    }
+    t2m::eval::write_motion_dir(a.out, rec, {{"provenance", {{"what", "VQ reconstructions (casim_vq.t2mckpt) of the "
+                                              "real " + a.split + " clips"}}}});
+  }
   const cs::ArGenerator gen(a.checkpoints, cond);
   const auto t0 = std::chrono::steady_clock::now();
+  json stats, provenance;
+  std::string what = "VQ reconstructions (" + a.checkpoints + "/casim_vq.t2mckpt) of the real " +
+                     std::string(a.compose > 0 ? "composed " : "") + "clips of the " + a.split + " split";
+  if (!a.reconstruct) {
   const double c0 = cs::process_cpu_seconds();
   // Jobs: (caption index, sample); sample 0 of every caption is the main entry.
   struct Job {
@@ -125,17 +155,21 @@ void run(Args a) {
   bar.finish();
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const double cpu = cs::process_cpu_seconds() - c0;
-  const std::string what = std::string("CASIM AR baseline casim-ar-") + a.cond + " (" + gen.gpt_path() + ", " +
+  what = std::string("CASIM AR baseline casim-ar-") + a.cond + " (" + gen.gpt_path() + ", " +
                            (a.length == "gt" ? "clip lengths" : "end-token lengths") + ") for the " +
                            (a.compose > 0 ? std::to_string(clips.size()) + " composed two-clause clips of the " : "") +
                            "captions of the " + a.split + " split";
-  const json stats = {{"generations", jobs.size()}, {"wall_s", wall}, {"cpu_s", cpu}, {"seed", a.seed},
+  stats = {{"generations", jobs.size()}, {"wall_s", wall}, {"cpu_s", cpu}, {"seed", a.seed},
                       {"mm_prompts", mm}, {"samples", a.samples}, {"length", a.length}, {"temperature", 1.0}};
-  const json provenance = {{"what", what}, {"data", "Bandai-Namco-Research-Motiondataset 1+2 (CC BY-NC 4.0), " + a.split +
+  provenance = {{"what", what}, {"data", "Bandai-Namco-Research-Motiondataset 1+2 (CC BY-NC 4.0), " + a.split +
                             " split, captions from its labels (seed 7, index 0)" +
                             (a.compose > 0 ? ", composed 'A, then B' (compose_samples.h, seed 7)" : "")},
                            {"stats", stats}};
   t2m::eval::write_motion_dir(a.out, entries, {{"provenance", provenance}});
+  }
+  if (a.reconstruct)
+    provenance = {{"what", what}, {"data", "Bandai-Namco-Research-Motiondataset 1+2 (CC BY-NC 4.0), " + a.split +
+                                  " split, captions from its labels (seed 7, index 0)"}};
 
   const auto md = t2m::eval::load_motion_dir(a.out);
   const auto ev = t2m::eval::load_evaluator(a.evaluator);
@@ -161,11 +195,12 @@ void run(Args a) {
   j["data"] = provenance["data"];
   j["stats"] = stats;
   t2m::nn::write_file_atomic(a.out + "/eval.json", j.dump(1) + "\n");
-  std::printf("%s: %zu motions, %d runs; generated in %.1f s wall, %.1f s CPU\n", what.c_str(), set.motions.size(),
-              a.protocol.runs, wall, cpu);
+  std::printf("%s: %zu motions, %d runs; %s\n", what.c_str(), set.motions.size(), a.protocol.runs,
+              stats.dump().c_str());
   for (size_t i = 0; i < rep.names.size(); ++i)
     std::printf("  %-26s %8.4f +- %.4f\n", rep.names[i].c_str(), rep.values[i].mean, rep.values[i].ci95);
-  std::printf("| casim-ar-%s%s | %s | %s | %s | %s | %s | %s | %s |\n", a.cond.c_str(),
+  const std::string label = a.reconstruct ? std::string("casim-vq reconstruction") : "casim-ar-" + a.cond;
+  std::printf("| %s%s | %s | %s | %s | %s | %s | %s | %s |\n", label.c_str(),
               a.compose > 0 ? " (compose)" : "", fmt_ci(rep.at("r_precision_top1")).c_str(),
               fmt_ci(rep.at("r_precision_top2")).c_str(), fmt_ci(rep.at("r_precision_top3")).c_str(),
               fmt_ci(rep.at("fid")).c_str(), fmt_ci(rep.at("mm_dist")).c_str(), fmt_ci(rep.at("diversity")).c_str(),
@@ -186,6 +221,8 @@ void add_eval_casim_ar(CLI::App& app) {
   c->add_option("--length", a->length, "gt: the clips' lengths; end: the GPT's end token")->capture_default_str();
   c->add_option("--max-frames", a->max_frames, "cap of the clip lengths with --length gt (the evaluator scores "
                  "centred 128-frame crops; as `t2m eval casim`)")->capture_default_str();
+  c->add_flag("--reconstruct", a->reconstruct, "score the tokenizer's reconstructions of the real clips instead "
+              "(the AR baseline's ceiling)");
   c->add_option("--compose", a->compose, "score N composed two-clause clips of the split instead (0 = off)")
       ->capture_default_str();
   c->add_option("--mm-prompts", a->mm_prompts, "prompts with extra samples (MultiModality)")->capture_default_str();
