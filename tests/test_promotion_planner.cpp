@@ -48,6 +48,7 @@ PlannerTable toy_table() {
     t.entries["wave-left-hand"].push_back(i % 2 ? codes(wave) : stand);
     t.entries["wave-right-hand"].push_back(mirror_posecodes(i % 2 ? codes(wave) : stand));
     t.entries["walk|tired"].push_back(codes(bent));
+    t.entries["guide"].push_back(codes(wave));  // its templates share only function words ("of") with the prompt below
   }
   return t;
 }

@@ -16,8 +16,11 @@ namespace t2m::promotion {
 
 namespace {
 
-const std::set<std::string> kSubjectWords = {"a", "an", "the", "person", "someone", "human", "man", "woman", "is",
-                                             "{", "}", "s", ",", "."};
+// Subject and function words: never evidence for a content.
+const std::set<std::string> kSubjectWords = {"a",  "an", "the", "person", "someone", "human", "man", "woman", "is",
+                                             "{",  "}",  "s",   ",",      ".",       "of",    "to",  "with",  "in",
+                                             "on", "at", "for", "and",    "by",      "into",  "it",  "this",  "them",
+                                             "as", "who", "being"};
 
 struct Vocab {
   std::vector<std::string> contents;

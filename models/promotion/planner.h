@@ -8,8 +8,8 @@
 // Steps (deterministic, no randomness):
 //   1. clauses: the prompt's words (text::split_words) split at "then" (a preceding "," or "and" is dropped) and at
 //      "after that" / "afterwards" / "finally"; empty clauses are dropped; no clause -> one empty clause.
-//   2. content of a clause: cosine similarity between the clause's word set (subject words "a an the person someone
-//      human man woman is" removed) and each content's tf-idf vector over the words of its caption templates
+//   2. content of a clause: cosine similarity between the clause's word set (subject and function words "a an the
+//      person someone human man woman is of to with in on at for and by into it this them as who being" removed) and each content's tf-idf vector over the words of its caption templates
 //      (idf = ln(1 + C / df) over the C contents); the best content wins (ties: caption table order); similarity
 //      0 (no shared word) -> the neutral entry. style: the style whose subject/adverb words share the most words
 //      with the clause (ties: table order; none -> no style).
