@@ -1,6 +1,7 @@
 // cmd_data_posescripts.cpp — `t2m data posescripts`: our PoseScript-style set (PRO-Motion posture scripts of the
 // key poses of one split of the Bandai data, models/promotion/posture_script_set.h) for inspection: prints the
 // scripts of the first --limit key poses, optionally the posecode statistics (--stats) and a JSONL file (--out).
+#include <chrono>
 #include <cstdio>
 #include <fstream>
 #include <memory>
@@ -9,6 +10,7 @@
 
 #include "models/promotion/planner.h"
 #include "models/promotion/pose.h"
+#include "models/promotion/posture_diffuser_sampler.h"
 #include "models/promotion/posecodes.h"
 #include "models/promotion/posture_script_set.h"
 #include "tensor/parallel.h"
@@ -22,7 +24,8 @@ namespace pm = t2m::promotion;
 
 struct Args {
   std::string split = "test", out, data_dir, cache_dir, plan, table = "models/checkpoints/promotion_planner.json";
-  int limit = 5, keys = pm::kDefaultKeyFrames, threads = 0;
+  int limit = 5, keys = pm::kDefaultKeyFrames, threads = 0, sample = 0;
+  std::string posture = "models/checkpoints/promotion_posture.t2mckpt";
   bool mirror = false, stats = false;
 };
 
@@ -57,6 +60,21 @@ void run_plan(const Args& a) {
                 c.style.empty() ? "-" : c.style.c_str(), c.entry.c_str(), c.mirrored ? ", mirrored" : "", c.frames,
                 c.score);
   for (size_t i = 0; i < p.scripts.size(); ++i) std::printf("F%zu: %s\n", i + 1, p.scripts[i].c_str());
+  if (a.sample < 1) return;
+  // --sample N: N posture-diffuser candidates per key frame and their posecode agreement with the plan.
+  if (a.threads > 0) t2m::set_num_threads(a.threads);
+  const pm::PostureModel m = pm::load_posture_model(a.posture);
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::vector<float> poses = pm::sample_postures(m, p.scripts, a.sample, 0);
+  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  for (size_t i = 0; i < p.scripts.size(); ++i) {
+    std::printf("F%zu agreement:", i + 1);
+    for (int j = 0; j < a.sample; ++j)
+      std::printf(" %.2f", pm::posecode_agreement(
+                               p.codes[i], pm::pose_posecodes(poses.data() + (i * a.sample + j) * pm::kPoseDim)));
+    std::printf("\n");
+  }
+  std::printf("sampled %zu x %d poses in %.1f s\n", p.scripts.size(), a.sample, secs);
 }
 
 void run(const Args& a) {
@@ -97,6 +115,8 @@ void add(CLI::App& app) {
   c->add_flag("--stats", a->stats, "print how often every posecode category fires");
   c->add_option("--out", a->out, "write every item as JSON lines");
   c->add_option("--plan", a->plan, "instead: print the planner's key-frame scripts for this prompt");
+  c->add_option("--sample", a->sample, "with --plan: sample N poses per key frame (posture diffuser)");
+  c->add_option("--posture", a->posture, "posture diffuser for --sample (default models/checkpoints/...)");
   c->add_option("--table", a->table, "planner table for --plan (default models/checkpoints/promotion_planner.json)");
   c->add_option("--data", a->data_dir, "Data directory (see data prepare)");
   c->add_option("--cache", a->cache_dir, "Cache directory (see data prepare)");
