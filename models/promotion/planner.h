@@ -2,7 +2,7 @@
 // frames. The paper prompts GPT-3.5 with the five posecode rules and PoseScript examples; no LLM is available
 // offline, so this planner is a rule/template planner over our caption vocabulary (docs/CAPTIONS.md) and a
 // template table mined from the train split (planner_table.h). It can only plan motions our data set contains
-// (27 content labels x styles); open-world prompts ("experiencing a profound sense of joy") fall back to the
+// (24 content labels, 220 content-style pairs in the shipped table); open-world prompts ("experiencing a profound sense of joy") fall back to the
 // closest content by shared words or to the neutral (standing) pose.
 //
 // Steps (deterministic, no randomness):
