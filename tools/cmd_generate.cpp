@@ -27,6 +27,7 @@ struct GenerateArgs {
   std::string prompt, out, checkpoints = "models/checkpoints";
   t2m::text2bfm::GenerateOptions opt;
   std::string model = "text2bfm";
+  std::string gen;  // generator checkpoint override (e.g. the diffusion variant); "" = CHECKPOINTS/gen_small
   bool no_render = false, overwrite = false;
   int threads = 0;
   CLI::Option *length_opt = nullptr, *cfg_opt = nullptr, *steps_opt = nullptr;
@@ -48,6 +49,8 @@ void add_options(CLI::App* c, GenerateArgs& a) {
   c->add_flag("--no-render", a.no_render, "skip render.mp4");
   c->add_flag("--overwrite", a.overwrite, "replace an existing output directory");
   c->add_option("--threads", a.threads, "threads (0 = default)");
+  c->add_option("--gen", a.gen, "generator checkpoint (default CHECKPOINTS/gen_small.t2mckpt; a diffusion one, "
+                "e.g. models/checkpoints/gen_diffusion_small.t2mckpt, is sampled with 50 DDIM steps)");
 }
 
 double process_cpu_seconds() {
@@ -103,9 +106,14 @@ void run(const GenerateArgs& a) {
   if (t2m::text::split_words(a.prompt).empty()) throw Error("generate: the prompt is empty");
   if (a.model != "text2bfm") return run_kinematic(a);
   a.opt.validate();
-  auto models = t2m::text2bfm::load_text2bfm(t2m::text2bfm::PipelinePaths::in_dir(a.checkpoints));
+  auto paths = t2m::text2bfm::PipelinePaths::in_dir(a.checkpoints);
+  if (!a.gen.empty()) paths.gen = a.gen;
+  auto models = t2m::text2bfm::load_text2bfm(paths);
+  // A diffusion generator (objective in its checkpoint) is sampled with DDIM: 50 steps unless --steps is given.
+  t2m::text2bfm::GenerateOptions opt = a.opt;
+  if (models.gen.objective == "diffusion" && a.steps_opt->count() == 0) opt.steps = 50;
   for (const auto& w : models.warnings) std::fprintf(stderr, "generate: warning: %s\n", w.c_str());
-  auto g = t2m::text2bfm::generate_motion(models, a.prompt, a.opt);
+  auto g = t2m::text2bfm::generate_motion(models, a.prompt, opt);
   t2m::text2bfm::WriteOptions w;
   w.render = !a.no_render;
   w.overwrite = a.overwrite;
