@@ -1,13 +1,16 @@
 // test_text2bfm_eval_generation.cpp — `t2m eval text2bfm`'s generation step (models/text2bfm/eval_generation.h)
 // and the motions-directory writer (models/eval/motion_dir_write.h) with tiny random models: lengths, file layout,
-// MultiModality groups, independence of the job count, round trip through load_motion_dir, errors.
+// MultiModality groups, independence of the job count, round trip through load_motion_dir, errors; the Table 2
+// runner (compose_eval.h) on the same tiny chain.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
 
 #include "models/eval/motion_dir.h"
 #include "models/eval/motion_dir_write.h"
+#include "models/text2bfm/compose_eval.h"
 #include "models/text2bfm/eval_generation.h"
 #include "sim/retarget.h"
 #include "tests/tiny_text2bfm.h"
@@ -126,4 +129,41 @@ TEST_F(EvalGeneration, BadInputsAreRefused) {
   EXPECT_THROW(eval::write_motion_dir((d / "m").string(), {e}), Error);
   EXPECT_FALSE(fs::exists(d / "m"));
   fs::remove_all(d);
+}
+
+// Table 2 runner (compose_eval.h) end to end on the tiny chain, with the tiny text-motion model standing in for
+// the evaluator: rows in range, independent of the job count; the real-segment row on hand-made clips.
+TEST_F(EvalGeneration, ComposeRunnerRowsAndJobIndependence) {
+  std::vector<text2bfm::ComposePrompt> prompts = {
+      {"a person walks forward, then someone sits down", {"a person walks forward", "someone sits down"}, {"a", "b"}},
+      {"someone waves with the right hand, then a person runs in a circle",
+       {"someone waves with the right hand", "a person runs in a circle"}, {"b", "a"}}};
+  text2bfm::ComposeEvalOptions o;
+  o.gen.steps = 2;
+  o.frames_per_clause = 12;
+  for (bool compose : {false, true}) {
+    o.jobs = 1;
+    const auto r1 = text2bfm::evaluate_compose(*models_, models_->text, prompts, o, compose);
+    o.jobs = 2;
+    const auto r2 = text2bfm::evaluate_compose(*models_, models_->text, prompts, o, compose);
+    EXPECT_EQ(r1.method, compose ? "Text2BFM-Compose" : "Text2BFM");
+    EXPECT_EQ(r1.N, 2);
+    EXPECT_EQ(r1.prompts, 2);
+    EXPECT_TRUE(r1.order_accuracy == 0.0 || r1.order_accuracy == 0.5 || r1.order_accuracy == 1.0);
+    EXPECT_GT(r1.mm_dist, 0.0);
+    EXPECT_GE(r1.transition, 0.0);
+    EXPECT_EQ(r1.order_accuracy, r2.order_accuracy);
+    EXPECT_EQ(r1.mm_dist, r2.mm_dist);
+    EXPECT_EQ(r1.transition, r2.transition);
+  }
+  std::vector<data::MotionClip> clips(2);
+  clips[0].name = "a", clips[1].name = "b";
+  clips[0].features.assign(20 * data::kFeatureDim, 0.1f);
+  clips[1].features.assign(8 * data::kFeatureDim, -0.2f);  // shorter than a clause: used whole
+  const auto real = text2bfm::evaluate_real_segments(models_->text, prompts, clips, 12);
+  EXPECT_EQ(real.prompts, 2);
+  EXPECT_GT(real.mm_dist, 0.0);
+  EXPECT_TRUE(std::isnan(real.transition));
+  prompts[0].clips[0] = "missing";
+  EXPECT_THROW(text2bfm::evaluate_real_segments(models_->text, prompts, clips, 12), Error);
 }
