@@ -4,7 +4,7 @@
 //   T2M_COMMAND(add_bench);
 //
 // Grouped leaves (`t2m train bfm`, `t2m eval track`): auto* g = command_group(app, "train", "train a model");
-//   g->add_subcommand("bfm", "...");  Groups in use: train (text, evaluator, bfm, vbb, gen), eval (motions, track).
+//   g->add_subcommand("bfm", "...");  Groups in use: train (text, evaluator, bfm, vbb, gen), eval (motions, track, text2bfm, compose).
 //
 // Errors: throw t2m::Error (or any std::exception); main prints "t2m: <message>" and exits with status 1.
 #pragma once
