@@ -9,6 +9,7 @@
 #include "models/io/output_dir.h"
 #include "nn/checkpoint.h"
 #include "sim/export.h"
+#include "sim/position_ik.h"
 #include "sim/render.h"
 #include "sim/retarget.h"
 
@@ -37,8 +38,11 @@ sim::Motion motion_from_features(const std::vector<float>& features) {
   m.frames = int(features.size() / data::kFeatureDim);
   m.fps = sim::kCanonicalFps;
   m.pos = data::features_to_positions(features);
-  m.rot = data::features_to_rotations(features);
   m.offsets = sim::humanoid_offsets();
+  std::vector<float> ref(sim::kNumJoints * 4);
+  for (int j = 0; j < sim::kNumJoints; ++j)
+    for (int k = 0; k < 4; ++k) ref[4 * j + k] = (float)sim::rest_world_rot(j)[k];
+  m.rot = sim::rotations_from_positions(m.pos, m.offsets, ref);  // not the generated 6D channels (docs/CASIM.md)
   return m;
 }
 

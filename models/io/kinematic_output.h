@@ -3,7 +3,7 @@
 //
 //   DIR/features.npy   the generated raw features [T, 257] (models/data/features.h), float32 .npy: what
 //                      `t2m eval motions` scores (exactly, no simulation or retargeting in between)
-//   DIR/motion.bvh     the motion retargeted onto our humanoid (sim/retarget.h: joint limits clamp, feet put on the
+//   DIR/motion.bvh     the motion (rotations solved from the generated positions) retargeted onto our humanoid (sim/retarget.h: joint limits clamp, feet put on the
 //                      floor) and exported with the Bandai hierarchy (sim/export.h), Blender-ready
 //   DIR/render.mp4     kinematic replay of that retargeted motion (no physics), unless render = false
 //   DIR/metrics.json   prompt, model, frames, duration, clamped hinge values, timing, the model's `info`
@@ -27,8 +27,10 @@ struct KinematicOutput {
   double generate_s = 0, generate_cpu_s = 0;        // wall / process CPU seconds of the model
 };
 
-// Canonical Motion of raw features (positions and local rotations from the exact inverse of features.h) with the
-// humanoid's rest offsets (sim::humanoid_offsets), so it can be retargeted and exported. fps 30.
+// Canonical Motion of raw features: positions from the exact inverse of features.h, the humanoid's rest offsets
+// (sim::humanoid_offsets), and local rotations solved from the positions (sim/position_ik.h), NOT the features' 6D
+// rotation channels: models trained with mirror augmentation generate a blend of two rotation conventions there
+// (docs/CASIM.md "Known defect"), while their positions are consistent. fps 30.
 sim::Motion motion_from_features(const std::vector<float>& features);
 
 struct KinematicWriteOptions {
