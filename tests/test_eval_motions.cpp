@@ -287,3 +287,29 @@ TEST(MotionDir, BvhEntryGivesTheClipFeatures) {
   EXPECT_EQ(md.entries[0].frames, (int64_t)(want.size() / F));
   EXPECT_EQ(md.entries[0].features, want);
 }
+
+TEST(EvalMotionsReport, MotionSetOfADirectoryAndTheMarkdownRow) {
+  t2m::eval::MotionDir md;
+  auto entry = [](const char* cap, int64_t prompt) {
+    t2m::eval::MotionEntry e;
+    e.caption = cap, e.prompt = prompt, e.frames = 1;
+    e.features.assign(257, float(prompt + 2));
+    return e;
+  };
+  md.entries = {entry("a", -1), entry("b", 0), entry("b", 0), entry("c", 1), entry("c", 1)};
+  const auto set = t2m::eval::motion_set_of(md);
+  ASSERT_EQ(set.captions, (std::vector<std::string>{"a", "b", "c"}));  // un-prompted + first of each prompt
+  ASSERT_EQ(set.motions.size(), 3u);
+  EXPECT_EQ(set.motions[1], &md.entries[1].features);
+  ASSERT_EQ(set.groups.size(), 2u);
+  EXPECT_EQ(set.groups[1][1], &md.entries[4].features);
+
+  t2m::eval::EvalReport rep;
+  rep.names = {"r_precision_top1", "fid"};
+  rep.values.resize(2);
+  rep.values[0].mean = 0.5, rep.values[0].ci95 = 0.01;
+  rep.values[1].mean = 1.25, rep.values[1].ci95 = 0.0;
+  EXPECT_EQ(t2m::eval::report_markdown_row("x", rep), "| x | 0.500 ± 0.010 | – | – | 1.250 ± 0.000 | – | – | – |");
+  EXPECT_EQ(t2m::eval::report_lines(rep),
+            "  r_precision_top1             0.5000 +- 0.0100\n  fid                          1.2500 +- 0.0000\n");
+}

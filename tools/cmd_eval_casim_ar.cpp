@@ -52,12 +52,6 @@ struct Args {
   t2m::eval::EvalProtocol protocol;
 };
 
-std::string fmt_ci(const t2m::eval::MeanCI& v) {
-  char b[64];
-  std::snprintf(b, sizeof b, "%.3f ± %.3f", v.mean, v.ci95);
-  return b;
-}
-
 void run(Args a) {
   const cs::ArCond cond = cs::ar_cond_from_name(a.cond);
   if (a.length != "gt" && a.length != "end") throw Error("eval casim-ar: --length must be gt or end, got " + a.length);
@@ -173,15 +167,7 @@ void run(Args a) {
 
   const auto md = t2m::eval::load_motion_dir(a.out);
   const auto ev = t2m::eval::load_evaluator(a.evaluator);
-  t2m::eval::MotionSet set;
-  for (int64_t i : md.main_set()) {
-    set.captions.push_back(md.entries[i].caption);
-    set.motions.push_back(&md.entries[i].features);
-  }
-  for (const auto& g : md.prompt_groups()) {
-    set.groups.emplace_back();
-    for (int64_t i : g) set.groups.back().push_back(&md.entries[i].features);
-  }
+  const t2m::eval::MotionSet set = t2m::eval::motion_set_of(md);
   std::vector<const std::vector<float>*> ref;
   for (const auto& c : clips) ref.push_back(&c.features);
   const auto rep = t2m::eval::evaluate_motions(ev, set, t2m::text::embed_motions(ev, ref), a.protocol);
@@ -197,14 +183,9 @@ void run(Args a) {
   t2m::nn::write_file_atomic(a.out + "/eval.json", j.dump(1) + "\n");
   std::printf("%s: %zu motions, %d runs; %s\n", what.c_str(), set.motions.size(), a.protocol.runs,
               stats.dump().c_str());
-  for (size_t i = 0; i < rep.names.size(); ++i)
-    std::printf("  %-26s %8.4f +- %.4f\n", rep.names[i].c_str(), rep.values[i].mean, rep.values[i].ci95);
+  std::fputs(t2m::eval::report_lines(rep).c_str(), stdout);
   const std::string label = a.reconstruct ? std::string("casim-vq reconstruction") : "casim-ar-" + a.cond;
-  std::printf("| %s%s | %s | %s | %s | %s | %s | %s | %s |\n", label.c_str(),
-              a.compose > 0 ? " (compose)" : "", fmt_ci(rep.at("r_precision_top1")).c_str(),
-              fmt_ci(rep.at("r_precision_top2")).c_str(), fmt_ci(rep.at("r_precision_top3")).c_str(),
-              fmt_ci(rep.at("fid")).c_str(), fmt_ci(rep.at("mm_dist")).c_str(), fmt_ci(rep.at("diversity")).c_str(),
-              rep.has("multimodality") ? fmt_ci(rep.at("multimodality")).c_str() : "–");
+  std::printf("%s\n", t2m::eval::report_markdown_row(label + (a.compose > 0 ? std::string(" (compose)") : std::string()), rep).c_str());
 }
 
 void add_eval_casim_ar(CLI::App& app) {

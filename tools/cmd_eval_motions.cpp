@@ -116,8 +116,7 @@ void run_eval(const EvalArgs& a) {
 
   std::printf("%s: %zu motions, %d runs (seed %llu)\n", what.c_str(), set.motions.size(), a.protocol.runs,
               (unsigned long long)a.protocol.seed);
-  for (size_t i = 0; i < rep.names.size(); ++i)
-    std::printf("  %-26s %8.4f +- %.4f\n", rep.names[i].c_str(), rep.values[i].mean, rep.values[i].ci95);
+  std::fputs(t2m::eval::report_lines(rep).c_str(), stdout);
   std::printf("report: %s\n", out.c_str());
 }
 

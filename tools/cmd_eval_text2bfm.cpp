@@ -51,12 +51,6 @@ struct Args {
   t2m::eval::EvalProtocol protocol;
 };
 
-std::string fmt_ci(const t2m::eval::MeanCI& v) {
-  char b[64];
-  std::snprintf(b, sizeof b, "%.3f ± %.3f", v.mean, v.ci95);
-  return b;
-}
-
 void run(Args a) {
   if (a.data.threads < 0) throw Error("eval text2bfm: --threads must be >= 0");
   if (a.protocol.runs < 1) throw Error("eval text2bfm: --runs must be >= 1");
@@ -156,15 +150,7 @@ void run(Args a) {
   // Score with the evaluator exactly as `t2m eval motions OUT` does (FID reference: the split's real clips).
   const auto md = t2m::eval::load_motion_dir(a.out);
   const auto ev = t2m::eval::load_evaluator(a.evaluator);
-  t2m::eval::MotionSet set;
-  for (int64_t i : md.main_set()) {
-    set.captions.push_back(md.entries[i].caption);
-    set.motions.push_back(&md.entries[i].features);
-  }
-  for (const auto& g : md.prompt_groups()) {
-    set.groups.emplace_back();
-    for (int64_t i : g) set.groups.back().push_back(&md.entries[i].features);
-  }
+  const t2m::eval::MotionSet set = t2m::eval::motion_set_of(md);
   std::vector<const std::vector<float>*> ref;
   for (const auto& c : clips) ref.push_back(&c.features);
   const t2m::Tensor reference = t2m::text::embed_motions(ev, ref);
@@ -184,14 +170,9 @@ void run(Args a) {
 
   std::printf("%s: %zu motions, %d runs (seed %llu); Bandai-Namco, our %s split\n", what.c_str(),
               set.motions.size(), a.protocol.runs, (unsigned long long)a.protocol.seed, a.split.c_str());
-  for (size_t i = 0; i < rep.names.size(); ++i)
-    std::printf("  %-26s %8.4f +- %.4f\n", rep.names[i].c_str(), rep.values[i].mean, rep.values[i].ci95);
+  std::fputs(t2m::eval::report_lines(rep).c_str(), stdout);
   const std::string label = a.label.empty() ? (a.tracking ? "BFM tracking (real Eq 2 latents)" : "Text2BFM") : a.label;
-  std::printf("| %s | %s | %s | %s | %s | %s | %s | %s |\n", label.c_str(),
-              fmt_ci(rep.at("r_precision_top1")).c_str(), fmt_ci(rep.at("r_precision_top2")).c_str(),
-              fmt_ci(rep.at("r_precision_top3")).c_str(), fmt_ci(rep.at("fid")).c_str(),
-              fmt_ci(rep.at("mm_dist")).c_str(), fmt_ci(rep.at("diversity")).c_str(),
-              rep.has("multimodality") ? fmt_ci(rep.at("multimodality")).c_str() : "–");
+  std::printf("%s\n", t2m::eval::report_markdown_row(label, rep).c_str());
   std::printf("motions: %s/motions.json  report: %s/eval.json\n", a.out.c_str(), a.out.c_str());
 }
 

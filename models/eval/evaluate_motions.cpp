@@ -1,6 +1,7 @@
 // evaluate_motions.cpp — embed a captioned motion set once with the evaluator, then run the seeded protocol.
 #include "models/eval/evaluate_motions.h"
 
+#include <cstdio>
 #include <string>
 
 #include "tensor/ops.h"
@@ -38,4 +39,41 @@ EvalReport evaluate_motions(const text::RetrievalBundle& evaluator, const Motion
   return evaluate_protocol(proto, [&](Generator&, int) { return e; });
 }
 
+MotionSet motion_set_of(const MotionDir& md) {
+  MotionSet set;
+  for (int64_t i : md.main_set()) {
+    set.captions.push_back(md.entries[i].caption);
+    set.motions.push_back(&md.entries[i].features);
+  }
+  for (const auto& g : md.prompt_groups()) {
+    set.groups.emplace_back();
+    for (int64_t i : g) set.groups.back().push_back(&md.entries[i].features);
+  }
+  return set;
+}
+
+std::string report_lines(const EvalReport& rep) {
+  std::string out;
+  char b[160];
+  for (size_t i = 0; i < rep.names.size(); ++i) {
+    std::snprintf(b, sizeof b, "  %-26s %8.4f +- %.4f\n", rep.names[i].c_str(), rep.values[i].mean,
+                  rep.values[i].ci95);
+    out += b;
+  }
+  return out;
+}
+
+std::string report_markdown_row(const std::string& label, const EvalReport& rep) {
+  auto cell = [&](const char* name) -> std::string {
+    if (!rep.has(name)) return "–";
+    char b[64];
+    std::snprintf(b, sizeof b, "%.3f ± %.3f", rep.at(name).mean, rep.at(name).ci95);
+    return b;
+  };
+  return "| " + label + " | " + cell("r_precision_top1") + " | " + cell("r_precision_top2") + " | " +
+         cell("r_precision_top3") + " | " + cell("fid") + " | " + cell("mm_dist") + " | " + cell("diversity") +
+         " | " + cell("multimodality") + " |";
+}
+
 }  // namespace t2m::eval
+

@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "models/eval/motion_dir.h"
 #include "models/eval/protocol.h"
 #include "models/text/retrieval_model.h"
 
@@ -30,5 +31,15 @@ struct MotionSet {
 
 EvalReport evaluate_motions(const text::RetrievalBundle& evaluator, const MotionSet& set, const Tensor& reference,
                             const EvalProtocol& protocol);
+
+// The MotionSet of a loaded motions directory: its main_set() entries and its prompt groups (pointers into md,
+// which must outlive the set).
+MotionSet motion_set_of(const MotionDir& md);
+
+// Text of a report: one line per metric "  name  mean +- ci95" (what every `t2m eval ...` prints).
+std::string report_lines(const EvalReport& rep);
+// One Markdown table row "| label | R@1 | R@2 | R@3 | FID | MM-Dist | Diversity | MultiModality |" with
+// "mean ± ci95" cells ("–" where a metric is absent).
+std::string report_markdown_row(const std::string& label, const EvalReport& rep);
 
 }  // namespace t2m::eval
