@@ -8,13 +8,13 @@
 
 #include "autograd/no_grad.h"
 #include "models/data/captions.h"
-#include "nn/grad_utils.h"
 #include "nn/loss_classification.h"
 #include "nn/lr_schedule.h"
 #include "nn/optim_adamw.h"
 #include "nn/progress.h"
 #include "nn/train_log.h"
 #include "nn/train_state.h"
+#include "nn/train_step.h"
 #include "tensor/ops.h"
 
 namespace t2m::casim {
@@ -110,27 +110,18 @@ TrainResult train_ar(ArGpt& model, const CodeSet& set, const ArTextEncoder& text
                                     corrupt_rng);
     const ag::Variable logits = model.forward(b.text, b.inputs);
     ag::Variable loss = nn::cross_entropy(logits, b.targets);  // CASIM Eq 2, teacher forcing
-    loss.backward();
-    const double l = loss.item(), acc = nn::accuracy(logits.data(), b.targets);
-    const double gn = nn::clip_grad_norm(params, 1.0);
-    if (!std::isfinite(gn)) nn::check_finite_grads(params);
-    opt.step();
+    const auto [l, gn] = nn::backward_clip_step(loss, params, opt);
+    const double acc = nn::accuracy(logits.data(), b.targets);
     log.write({{"step", ts.step + 1}, {"loss", l}, {"acc", acc}, {"lr", opt.lr()}, {"grad_norm", gn}});
     bar.update(ts.step + 1, {{"loss", l}, {"acc", acc}});
     if (++ts.step % cfg.save_every == 0 || ts.step == end) ts.save(paths.state);
   }
   bar.finish();
   model.eval();
-  if (!paths.svg.empty() && std::filesystem::exists(paths.log)) {
-    nn::SvgPlotOptions so;
-    so.keys = {"loss"};
-    so.title = std::string("CASIM AR GPT (") + ar_cond_name(model.config().cond) +
-               "): token cross-entropy (Bandai train split)";
-    try {
-      nn::write_loss_svg(paths.log, paths.svg, so);
-    } catch (const Error&) {  // nothing logged yet
-    }
-  }
+  nn::write_loss_plot_if_logged(paths.log, paths.svg,
+                                std::string("CASIM AR GPT (") + ar_cond_name(model.config().cond) +
+                                    "): token cross-entropy (Bandai train split)",
+                                {"loss"}, /*log_y=*/false);
   TrainResult r;
   r.steps = ts.step;
   r.final_loss = bar.smoothed("loss");

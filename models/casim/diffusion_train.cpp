@@ -8,13 +8,13 @@
 
 #include "models/casim/diffusion_generate.h"
 #include "models/casim/diffusion_schedule.h"
-#include "nn/grad_utils.h"
 #include "nn/loss_regression.h"
 #include "nn/lr_schedule.h"
 #include "nn/optim_adamw.h"
 #include "nn/progress.h"
 #include "nn/train_log.h"
 #include "nn/train_state.h"
+#include "nn/train_step.h"
 
 namespace t2m::casim {
 
@@ -92,27 +92,14 @@ DiffusionTrainResult train_diffusion(CasimDenoiser& model, const text::Retrieval
     nn::MseOptions mo;
     mo.weights = batch.mask.unsqueeze(2);
     ag::Variable loss = nn::mse_loss(x0, ag::Variable(batch.x), mo);  // MDM Eq 2 (simple x0 loss)
-    loss.backward();
-    const double l = loss.item();
-    const double gn = nn::clip_grad_norm(params, 1.0);
-    if (!std::isfinite(gn)) nn::check_finite_grads(params);
-    opt.step();
+    const auto [l, gn] = nn::backward_clip_step(loss, params, opt);
     log.write({{"step", ts.step + 1}, {"loss", l}, {"lr", opt.lr()}, {"grad_norm", gn}});
     bar.update(ts.step + 1, {{"loss", l}});
     if (++ts.step % cfg.save_every == 0 || ts.step == end) ts.save(paths.state);
   }
   bar.finish();
   model.eval();
-  if (!paths.svg.empty() && std::filesystem::exists(paths.log)) {
-    nn::SvgPlotOptions so;
-    so.keys = {"loss"};
-    so.log_y = true;
-    so.title = label + ": x0 loss (Bandai train split, normalised features)";
-    try {
-      nn::write_loss_svg(paths.log, paths.svg, so);
-    } catch (const Error&) {  // an empty log has nothing to plot
-    }
-  }
+  nn::write_loss_plot_if_logged(paths.log, paths.svg, label + ": x0 loss (Bandai train split, normalised features)");
   DiffusionTrainResult r;
   r.steps = ts.step;
   r.final_loss = bar.smoothed("loss");

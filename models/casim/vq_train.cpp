@@ -8,12 +8,12 @@
 
 #include "autograd/no_grad.h"
 #include "models/data/features.h"
-#include "nn/grad_utils.h"
 #include "nn/lr_schedule.h"
 #include "nn/optim_adamw.h"
 #include "nn/progress.h"
 #include "nn/train_log.h"
 #include "nn/train_state.h"
+#include "nn/train_step.h"
 #include "tensor/ops.h"
 
 namespace t2m::casim {
@@ -75,11 +75,7 @@ TrainResult train_vq(VqVae& model, const std::vector<data::MotionClip>& train, c
     opt.set_lr(sched.at(ts.step));
     opt.zero_grad();
     VqStep s = vq_loss(model, batch.x, batch.mask);
-    s.loss.backward();
-    const double l = s.loss.item();
-    const double gn = nn::clip_grad_norm(trainable, 1.0);
-    if (!std::isfinite(gn)) nn::check_finite_grads(trainable);
-    opt.step();
+    const auto [l, gn] = nn::backward_clip_step(s.loss, trainable, opt);
     const int64_t resets = model.codebook().ema_update(s.z_real, s.ids_real, reset_rng);
     log.write({{"step", ts.step + 1}, {"loss", l}, {"rec", s.rec}, {"vel", s.vel}, {"commit", s.commit},
                {"resets", resets}, {"lr", opt.lr()}, {"grad_norm", gn}});
@@ -88,16 +84,8 @@ TrainResult train_vq(VqVae& model, const std::vector<data::MotionClip>& train, c
   }
   bar.finish();
   model.eval();
-  if (!paths.svg.empty() && std::filesystem::exists(paths.log)) {
-    nn::SvgPlotOptions so;
-    so.keys = {"loss", "rec", "vel", "commit"};
-    so.log_y = true;
-    so.title = "CASIM AR tokenizer: VQ-VAE loss (Bandai train split)";
-    try {
-      nn::write_loss_svg(paths.log, paths.svg, so);
-    } catch (const Error&) {  // nothing logged yet
-    }
-  }
+  nn::write_loss_plot_if_logged(paths.log, paths.svg, "CASIM AR tokenizer: VQ-VAE loss (Bandai train split)",
+                                {"loss", "rec", "vel", "commit"});
   TrainResult r;
   r.steps = ts.step;
   r.final_loss = bar.smoothed("loss");

@@ -7,12 +7,12 @@
 #include <filesystem>
 
 #include "models/promotion/pose.h"
-#include "nn/grad_utils.h"
 #include "nn/lr_schedule.h"
 #include "nn/optim_adamw.h"
 #include "nn/progress.h"
 #include "nn/train_log.h"
 #include "nn/train_state.h"
+#include "nn/train_step.h"
 
 namespace t2m::promotion {
 
@@ -98,27 +98,14 @@ GoTrainResult train_go_diffuser(GoDiffuser& m, const std::vector<data::MotionCli
     const Tensor eps = rand_normal(b.x.shape(), noise_rng);
     const Tensor keep = m.sample_key_keep(b.size(), drop_rng);
     ag::Variable loss = go_diffuser_loss(m, b.x, b.mask, t, eps, keys, key_frames, keep);
-    loss.backward();
-    const double l = loss.item();
-    const double gn = nn::clip_grad_norm(params, 1.0);
-    if (!std::isfinite(gn)) nn::check_finite_grads(params);
-    opt.step();
+    const auto [l, gn] = nn::backward_clip_step(loss, params, opt);
     log.write({{"step", ts.step + 1}, {"loss", l}, {"lr", opt.lr()}, {"grad_norm", gn}});
     bar.update(ts.step + 1, {{"loss", l}});
     if (++ts.step % cfg.save_every == 0 || ts.step == end) ts.save(paths.state);
   }
   bar.finish();
   m.eval();
-  if (!paths.svg.empty() && std::filesystem::exists(paths.log)) {
-    nn::SvgPlotOptions so;
-    so.keys = {"loss"};
-    so.log_y = true;
-    so.title = "go-diffuser: x0 DDPM loss (train split windows)";
-    try {
-      nn::write_loss_svg(paths.log, paths.svg, so);
-    } catch (const Error&) {
-    }
-  }
+  nn::write_loss_plot_if_logged(paths.log, paths.svg, "go-diffuser: x0 DDPM loss (train split windows)");
   GoTrainResult r;
   r.steps = ts.step;
   r.final_loss = bar.smoothed("loss");

@@ -8,13 +8,13 @@
 
 #include "autograd/no_grad.h"
 #include "models/text/retrieval_model.h"
-#include "nn/grad_utils.h"
 #include "nn/loss_contrastive.h"
 #include "nn/lr_schedule.h"
 #include "nn/optim_adamw.h"
 #include "nn/progress.h"
 #include "nn/train_log.h"
 #include "nn/train_state.h"
+#include "nn/train_step.h"
 #include "tensor/ops.h"
 
 namespace t2m::promotion {
@@ -85,11 +85,7 @@ EncodersTrainResult train_pose_text_encoders(PoseTextEncoders& m, const text::To
     const ag::Variable pe = m.embed_poses(ag::Variable(batch_poses(set, idx, stats)));
     const ag::Variable te = m.embed_scripts(eb.ids, eb.mask);
     const auto cl = nn::info_nce(pe, te, m.logit_scale(), Tensor::from_vector(ids, {cfg.batch}), false);
-    cl.loss.backward();
-    const double l = cl.loss.item();
-    const double gn = nn::clip_grad_norm(params, 1.0);
-    if (!std::isfinite(gn)) nn::check_finite_grads(params);
-    opt.step();
+    const auto [l, gn] = nn::backward_clip_step(cl.loss, params, opt);
     nn::clamp_logit_scale_(m.logit_scale());
     log.write({{"step", ts.step + 1}, {"loss", l}, {"lr", opt.lr()}, {"grad_norm", gn}, {"gamma", m.gamma()}});
     bar.update(ts.step + 1, {{"loss", l}, {"gamma", m.gamma()}});
@@ -97,15 +93,8 @@ EncodersTrainResult train_pose_text_encoders(PoseTextEncoders& m, const text::To
   }
   bar.finish();
   m.eval();
-  if (!paths.svg.empty() && std::filesystem::exists(paths.log)) {
-    nn::SvgPlotOptions so;
-    so.keys = {"loss"};
-    so.title = "posture-planning encoders: InfoNCE (train split key poses)";
-    try {
-      nn::write_loss_svg(paths.log, paths.svg, so);
-    } catch (const Error&) {
-    }
-  }
+  nn::write_loss_plot_if_logged(paths.log, paths.svg, "posture-planning encoders: InfoNCE (train split key poses)",
+                                {"loss"}, /*log_y=*/false);
   EncodersTrainResult r;
   r.steps = ts.step;
   r.final_loss = bar.smoothed("loss");

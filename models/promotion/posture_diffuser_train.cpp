@@ -8,13 +8,13 @@
 
 #include "autograd/no_grad.h"
 #include "models/promotion/diffusion_schedule.h"
-#include "nn/grad_utils.h"
 #include "nn/loss_regression.h"
 #include "nn/lr_schedule.h"
 #include "nn/optim_adamw.h"
 #include "nn/progress.h"
 #include "nn/train_log.h"
 #include "nn/train_state.h"
+#include "nn/train_step.h"
 #include "tensor/ops.h"
 #include "tensor/rng.h"
 
@@ -90,27 +90,14 @@ PostureTrainResult train_posture_diffuser(PostureDiffuser& net, const PostureTra
     const ScriptContext ctx =
         net.encode_with_drop(index_select(data.ids, 0, idx), index_select(data.mask, 0, idx), drop);
     ag::Variable loss = nn::mse_loss(net.forward(ag::Variable(x_t), t, ctx), ag::Variable(x0));  // paper Eq 2
-    loss.backward();
-    const double l = loss.item();
-    const double gn = nn::clip_grad_norm(params, 1.0);
-    if (!std::isfinite(gn)) nn::check_finite_grads(params);
-    opt.step();
+    const auto [l, gn] = nn::backward_clip_step(loss, params, opt);
     log.write({{"step", ts.step + 1}, {"loss", l}, {"lr", opt.lr()}, {"grad_norm", gn}});
     bar.update(ts.step + 1, {{"loss", l}});
     if (++ts.step % cfg.save_every == 0 || ts.step == end) ts.save(paths.state);
   }
   bar.finish();
   net.eval();
-  if (!paths.svg.empty() && std::filesystem::exists(paths.log)) {
-    nn::SvgPlotOptions so;
-    so.keys = {"loss"};
-    so.log_y = true;
-    so.title = "posture diffuser: x0 MSE (paper Eq 2), train split key poses";
-    try {
-      nn::write_loss_svg(paths.log, paths.svg, so);
-    } catch (const Error&) {  // nothing trained in this call
-    }
-  }
+  nn::write_loss_plot_if_logged(paths.log, paths.svg, "posture diffuser: x0 MSE (paper Eq 2), train split key poses");
   PostureTrainResult r;
   r.steps = ts.step;
   r.final_loss = bar.smoothed("loss");

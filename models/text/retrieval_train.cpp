@@ -7,13 +7,13 @@
 #include <map>
 
 #include "models/data/captions.h"
-#include "nn/grad_utils.h"
 #include "nn/loss_contrastive.h"
 #include "nn/lr_schedule.h"
 #include "nn/optim_adamw.h"
 #include "nn/progress.h"
 #include "nn/train_log.h"
 #include "nn/train_state.h"
+#include "nn/train_step.h"
 
 namespace t2m::text {
 
@@ -142,11 +142,7 @@ RetrievalTrainResult train_retrieval(RetrievalBundle& bundle, const std::vector<
     const ag::Variable et = model.embed_text(eb.ids, eb.mask);
     const ag::Variable em = model.embed_motion(ag::Variable(batch.x), batch.mask);
     const nn::ContrastiveLoss cl = nn::info_nce(em, et, alpha, text_ids(batch, train));
-    cl.loss.backward();
-    const double loss = cl.loss.item();
-    const double gn = nn::clip_grad_norm(params, 1.0);
-    if (!std::isfinite(gn)) nn::check_finite_grads(params);
-    opt.step();
+    const auto [loss, gn] = nn::backward_clip_step(cl.loss, params, opt);
     nn::clamp_logit_scale_(alpha);
     ++ts.step;
     nlohmann::json rec = {{"step", ts.step},

@@ -5,7 +5,6 @@
 #include <cmath>
 #include <filesystem>
 
-#include "nn/grad_utils.h"
 #include "nn/loss_diffusion.h"
 #include "nn/loss_flow.h"
 #include "nn/lr_schedule.h"
@@ -13,6 +12,7 @@
 #include "nn/progress.h"
 #include "nn/train_log.h"
 #include "nn/train_state.h"
+#include "nn/train_step.h"
 #include "tensor/ops.h"
 
 namespace t2m::text2bfm {
@@ -80,28 +80,16 @@ GenTrainResult train_generator(FlowGenerator& gen, const ProgramDataset& data, c
                                          b.m_mask);
       loss = nn::flow_matching_loss(v, ag::Variable(fsmp.x0), ag::Variable(b.m), mo);  // Eq 15
     }
-    loss.backward();
-    const double l = loss.item();
-    const double gn = nn::clip_grad_norm(params, 1.0);
-    if (!std::isfinite(gn)) nn::check_finite_grads(params);
-    opt.step();
+    const auto [l, gn] = nn::backward_clip_step(loss, params, opt);
     log.write({{"step", ts.step + 1}, {"loss", l}, {"lr", opt.lr()}, {"grad_norm", gn}});
     bar.update(ts.step + 1, {{"loss", l}});
     if (++ts.step % cfg.save_every == 0 || ts.step == end) ts.save(paths.state);
   }
   bar.finish();
   gen.eval();
-  if (!paths.svg.empty() && std::filesystem::exists(paths.log)) {
-    nn::SvgPlotOptions so;
-    so.keys = {"loss"};
-    so.log_y = true;
-    so.title = diffusion ? "diffusion generator: v-prediction loss (train split programs)"
-                         : "flow generator: Eq 15 loss (train split programs)";
-    try {
-      nn::write_loss_svg(paths.log, paths.svg, so);
-    } catch (const Error&) {  // an empty log (nothing trained in this call) has nothing to plot
-    }
-  }
+  nn::write_loss_plot_if_logged(paths.log, paths.svg,
+                                diffusion ? "diffusion generator: v-prediction loss (train split programs)"
+                                          : "flow generator: Eq 15 loss (train split programs)");
   GenTrainResult r;
   r.steps = ts.step;
   r.final_loss = bar.smoothed("loss");
