@@ -14,6 +14,7 @@
 #include "models/text2bfm/vbb_checkpoint.h"
 #include "nn/checkpoint.h"
 #include "sim/bvh.h"
+#include "tiny_text2bfm.h"
 
 using namespace t2m;
 namespace fs = std::filesystem;
@@ -22,7 +23,7 @@ using text2bfm::PipelinePaths;
 
 namespace {
 
-constexpr int64_t kZ = 8;  // tiny BFM latent width
+constexpr int64_t kZ = test_util::kTinyZ;  // tiny BFM latent width
 
 fs::path fresh_dir(const std::string& name) {
   const fs::path d = fs::temp_directory_path() / ("t2m_pipeline_" + name + "_" + std::to_string(::getpid()));
@@ -36,42 +37,7 @@ class Pipeline : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new fs::path(fresh_dir("ckpt"));
-    const auto p = PipelinePaths::in_dir(dir_->string());
-    text::RetrievalBundle b;
-    b.tokenizer = text::Tokenizer::build({"a person walks forward", "someone waves with the right hand",
-                                          "a person runs in a circle", "someone sits down"});
-    text::TextMotionConfig c;
-    c.text.vocab = b.tokenizer.vocab_size(), c.text.dim = 8, c.text.layers = 1, c.text.heads = 2;
-    c.text.embed_dim = 6, c.text.max_len = 24;
-    c.motion.dim = 8, c.motion.layers = 1, c.motion.heads = 2, c.motion.patch = 4, c.motion.max_patches = 4;
-    c.motion.embed_dim = 6, c.motion.feature_dim = data::kFeatureDim;
-    Generator g(1);
-    b.model = std::make_shared<text::TextMotionModel>(c, g);
-    b.stats.mean.assign(data::kFeatureDim, 0.f);
-    b.stats.std.assign(data::kFeatureDim, 1.f);
-    b.window = 16;
-    text::save_retrieval_checkpoint(b, p.text);
-
-    text2bfm::VbbConfig vc;
-    vc.in_dim = kZ, vc.width = 16, vc.latent = 4, vc.levels = 2, vc.depth = 1, vc.groups = 4;
-    text2bfm::Vbb vbb(vc, g);
-    text2bfm::save_vbb(vbb, p.vbb);
-
-    text2bfm::FlowGeneratorConfig fc;
-    fc.latent = 4, fc.width = 16, fc.depth = 1, fc.heads = 2, fc.ctx_dim = 16, fc.freq_dim = 16;
-    fc.adapter = {.tok_dim = 8, .width = 16, .depth = 1, .heads = 2, .ctx_dim = 16, .max_len = 24};
-    text2bfm::GenBundle gb;
-    gb.model = std::make_shared<text2bfm::FlowGenerator>(fc, g);
-    gb.program_mean = Tensor::full({4}, 0.1);
-    gb.program_std = Tensor::full({4}, 0.5);
-    gb.compression = vc.compression();
-    gb.window = 8;
-    text2bfm::save_gen_checkpoint(gb, p.gen);
-
-    bfm::FbConfig bc;
-    bc.z_dim = kZ, bc.hidden = 32, bc.b_hidden = 32;
-    bfm::FbAgent agent(bc, 3);
-    bfm::save_policy(agent, p.bfm);
+    const auto p = test_util::save_tiny_text2bfm(dir_->string());
     models_ = new text2bfm::Text2BfmModels(text2bfm::load_text2bfm(p));
   }
   static void TearDownTestSuite() {

@@ -1,5 +1,5 @@
 // tiny_text2bfm.h — test helper: the four checkpoints of the Text2BFM chain with tiny, randomly initialised models
-// (the same sizes as test_text2bfm_pipeline.cpp's fixture) saved in a directory, so pipeline-level code can run
+// (test_text2bfm_pipeline.cpp uses them as its fixture) saved in a directory, so pipeline-level code can run
 // without the shipped checkpoints. save_tiny_text2bfm(dir) writes them and returns their paths.
 #pragma once
 #include <memory>
