@@ -2,6 +2,7 @@
 // (train_variants.h), with the common flags; dispatches to the registered trainer.
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <memory>
 #include <set>
 
@@ -54,6 +55,26 @@ void VariantTrainArgs::check_keys(const std::vector<std::string>& known) const {
                   (list.empty() ? std::string("none") : list) + ")");
     }
   }
+}
+
+std::vector<data::MotionClip> VariantTrainArgs::split_clips(data::Split split) const {
+  const std::string mp = manifest.empty() ? data::default_cache_dir() + "/bandai/manifest.json" : manifest;
+  if (!std::filesystem::exists(mp))
+    throw Error("train " + family + ": no manifest at " + mp + " (run `t2m data prepare`)");
+  const auto m = data::load_manifest(mp);
+  std::vector<std::string> names;
+  for (const auto& c : m.clips) names.push_back(c.name);
+  return data::load_split_clips(m, data::assign_splits(names), split, threads);
+}
+
+std::string VariantTrainArgs::command_line() const {
+  std::string s = "t2m train " + family + " --variant " + variant + " --out " + out;
+  if (steps) s += " --steps " + std::to_string(steps);
+  if (batch) s += " --batch " + std::to_string(batch);
+  if (lr > 0) s += " --lr " + std::to_string(lr);
+  s += " --seed " + std::to_string(seed);
+  for (const auto& [k, v] : sets) s += " --set " + k + "=" + v;
+  return s;
 }
 
 }  // namespace t2m::cli

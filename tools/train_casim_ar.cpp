@@ -31,25 +31,6 @@ using t2m::cli::VariantTrainArgs;
 constexpr const char* kData = "Bandai-Namco-Research-Motiondataset 1+2 (CC BY-NC 4.0)";
 constexpr uint64_t kCaptionSeed = 7;  // test captions: make_caption(labels, 7, 0), as `t2m eval motions`
 
-std::vector<t2m::data::MotionClip> clips_of(const VariantTrainArgs& a, t2m::data::Split s) {
-  const std::string mp = a.manifest.empty() ? t2m::data::default_cache_dir() + "/bandai/manifest.json" : a.manifest;
-  if (!fs::exists(mp)) throw Error("train casim: no manifest at " + mp + " (run `t2m data prepare`)");
-  const auto m = t2m::data::load_manifest(mp);
-  std::vector<std::string> names;
-  for (const auto& c : m.clips) names.push_back(c.name);
-  return t2m::data::load_split_clips(m, t2m::data::assign_splits(names), s, a.threads);
-}
-
-std::string command_line(const VariantTrainArgs& a) {
-  std::string s = "t2m train casim --variant " + a.variant;
-  if (a.steps) s += " --steps " + std::to_string(a.steps);
-  if (a.batch) s += " --batch " + std::to_string(a.batch);
-  if (a.lr > 0) s += " --lr " + std::to_string(a.lr);
-  s += " --seed " + std::to_string(a.seed);
-  for (const auto& [k, v] : a.sets) s += " --set " + k + "=" + v;
-  return s;
-}
-
 void finish(const VariantTrainArgs& a, const std::string& ckpt, const json& summary) {
   t2m::nn::write_file_atomic(a.out + "/summary.json", summary.dump(1) + "\n");
   if (!a.ship.empty()) t2m::cli::copy_file_atomic(ckpt, a.ship);
@@ -73,7 +54,7 @@ void train_vq(const VariantTrainArgs& a) {
   tc.stop_at = a.stop_at;
   tc.seed = a.seed;
   fs::create_directories(a.out);
-  const auto train = clips_of(a, t2m::data::Split::train);
+  const auto train = a.split_clips(t2m::data::Split::train);
   const auto stats = t2m::data::clip_feature_stats(train, true);
   t2m::Generator g(a.seed);
   auto model = std::make_shared<cs::VqVae>(mc, g);
@@ -88,9 +69,9 @@ void train_vq(const VariantTrainArgs& a) {
                 (long long)r.steps, (long long)tc.steps, r.seconds, r.cpu_seconds);
     return;
   }
-  const auto test = clips_of(a, t2m::data::Split::test);
+  const auto test = a.split_clips(t2m::data::Split::test);
   const cs::VqEval ev = cs::vq_evaluate(*model, test, stats);
-  cs::VqBundle b{model, stats, {{"command", command_line(a)}, {"steps", r.steps}, {"schedule_steps", tc.steps},
+  cs::VqBundle b{model, stats, {{"command", a.command_line()}, {"steps", r.steps}, {"schedule_steps", tc.steps},
                                 {"config", tc.to_json()},
                                 {"data", std::string(kData) + ", train split"}}};
   const std::string ckpt = a.out + "/casim_vq.t2mckpt";
@@ -114,7 +95,7 @@ void train_ar(const VariantTrainArgs& a, cs::ArCond cond) {
     const std::string path = cdir + "/codes_" + t2m::data::split_name(s) + ".json";
     return cs::ensure_code_set(path, crc, [&] {
       std::fprintf(stderr, "train casim: tokenizing the %s split -> %s\n", t2m::data::split_name(s), path.c_str());
-      return cs::build_code_set(*vq.model, vq.stats, clips_of(a, s));
+      return cs::build_code_set(*vq.model, vq.stats, a.split_clips(s));
     });
   };
   const cs::CodeSet train = codes_of(t2m::data::Split::train);
@@ -148,7 +129,7 @@ void train_ar(const VariantTrainArgs& a, cs::ArCond cond) {
     return;
   }
   const cs::ArEval ev = cs::ar_evaluate(*model, codes_of(t2m::data::Split::test), text, kCaptionSeed);
-  cs::ArBundle b{model, crc, {{"command", command_line(a)}, {"steps", r.steps}, {"schedule_steps", tc.steps},
+  cs::ArBundle b{model, crc, {{"command", a.command_line()}, {"steps", r.steps}, {"schedule_steps", tc.steps},
                               {"config", tc.to_json()},
                               {"data", std::string(kData) + ", train split"}, {"vq", vq_p}, {"text_encoder", text_p}}};
   const std::string ckpt = a.out + "/casim_ar_" + cs::ar_cond_name(cond) + ".t2mckpt";

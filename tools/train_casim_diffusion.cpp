@@ -33,25 +33,6 @@ using t2m::cli::VariantTrainArgs;
 
 constexpr const char* kData = "Bandai-Namco-Research-Motiondataset 1+2 (CC BY-NC 4.0)";
 
-std::vector<t2m::data::MotionClip> train_clips(const VariantTrainArgs& a) {
-  const std::string mp = a.manifest.empty() ? t2m::data::default_cache_dir() + "/bandai/manifest.json" : a.manifest;
-  if (!fs::exists(mp)) throw Error("train casim: no manifest at " + mp + " (run `t2m data prepare`)");
-  const auto m = t2m::data::load_manifest(mp);
-  std::vector<std::string> names;
-  for (const auto& c : m.clips) names.push_back(c.name);
-  return t2m::data::load_split_clips(m, t2m::data::assign_splits(names), t2m::data::Split::train, a.threads);
-}
-
-std::string command_line(const VariantTrainArgs& a) {
-  std::string s = "t2m train casim --variant " + a.variant;
-  if (a.steps) s += " --steps " + std::to_string(a.steps);
-  if (a.batch) s += " --batch " + std::to_string(a.batch);
-  if (a.lr > 0) s += " --lr " + std::to_string(a.lr);
-  s += " --seed " + std::to_string(a.seed);
-  for (const auto& [k, v] : a.sets) s += " --set " + k + "=" + v;
-  return s;
-}
-
 void train_diffusion_variant(const VariantTrainArgs& a, cs::Conditioning cond) {
   a.check_keys({"width", "layers", "heads", "mlp_ratio", "window", "cond_dropout", "guidance", "sample_steps",
                 "paraphrases", "text"});
@@ -83,7 +64,7 @@ void train_diffusion_variant(const VariantTrainArgs& a, cs::Conditioning cond) {
   tc.validate();
   fs::create_directories(a.out);
 
-  const auto train = train_clips(a);
+  const auto train = a.split_clips(t2m::data::Split::train);
   const auto stats = t2m::data::clip_feature_stats(train, true);
   t2m::Generator g(a.seed);
   auto model = std::make_shared<cs::CasimDenoiser>(mc, g);
@@ -109,7 +90,7 @@ void train_diffusion_variant(const VariantTrainArgs& a, cs::Conditioning cond) {
   b.window = tc.window;
   b.sampler.steps = a.get_int("sample_steps", 50);
   b.sampler.guidance = a.get_double("guidance", 2.5);
-  b.train = {{"command", command_line(a)}, {"steps", r.steps}, {"config", tc.to_json()},
+  b.train = {{"command", a.command_line()}, {"steps", r.steps}, {"config", tc.to_json()},
              {"data", std::string(kData) + ", train split, captions from its labels"}, {"text_encoder", text_p},
              {"wall_seconds_total", wall}, {"cpu_seconds_total", cpu}};
   const std::string ckpt = a.out + "/casim_" + std::string(a.variant == "diff-cls" ? "diff_cls" :

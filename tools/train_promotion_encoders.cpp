@@ -42,15 +42,9 @@ void train_encoders(const t2m::cli::VariantTrainArgs& a) {
   tc.seed = a.seed;
   tc.warmup = a.get_int("warmup", tc.warmup);
   tc.validate();
-  if (!fs::exists(a.manifest)) throw Error("train promotion: no manifest at " + a.manifest + " (run `t2m data prepare`)");
-  fs::create_directories(a.out);
-
-  const auto manifest = t2m::data::load_manifest(a.manifest);
-  std::vector<std::string> names;
-  for (const auto& c : manifest.clips) names.push_back(c.name);
-  const auto splits = t2m::data::assign_splits(names);
   std::fprintf(stderr, "train promotion encoders: loading the train and test splits ...\n");
-  const auto train = t2m::data::load_split_clips(manifest, splits, t2m::data::Split::train, a.threads);
+  const auto train = a.split_clips(t2m::data::Split::train);
+  fs::create_directories(a.out);
   const auto stats = pm::pose_stats_from_feature_stats(t2m::data::clip_feature_stats(train));
   const auto set = pm::build_posture_script_set(train, pm::kDefaultKeyFrames, true);
   t2m::Generator g(a.seed);
@@ -60,12 +54,10 @@ void train_encoders(const t2m::cli::VariantTrainArgs& a) {
   const pm::EncodersTrainPaths p{a.out + "/train_state.t2mckpt", a.out + "/log.jsonl", a.out + "/loss.svg"};
   const auto r = pm::train_pose_text_encoders(*model, tok, set, stats, tc, p, a.resume);
 
-  const auto test = t2m::data::load_split_clips(manifest, splits, t2m::data::Split::test, a.threads);
+  const auto test = a.split_clips(t2m::data::Split::test);
   const auto test_set = pm::build_posture_script_set(test, pm::kDefaultKeyFrames, false);
   const auto ret = pm::pose_text_retrieval(*model, tok, test_set, stats, 32);
-  std::string cmd = "t2m train promotion --variant encoders --out " + a.out + " --seed " + std::to_string(a.seed);
-  if (a.steps) cmd += " --steps " + std::to_string(a.steps);
-  for (const auto& [k, v] : a.sets) cmd += " --set " + k + "=" + v;
+  const std::string cmd = a.command_line();
   pm::PoseTextBundle b{model, tok, stats,
                        {{"command", cmd}, {"steps", r.steps}, {"config", tc.to_json()},
                         {"data", "Bandai-Namco-Research-Motiondataset 1+2 (CC BY-NC 4.0), train split key poses "

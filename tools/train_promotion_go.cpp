@@ -24,16 +24,6 @@ using json = nlohmann::json;
 using t2m::Error;
 namespace pm = t2m::promotion;
 
-std::string command_line(const t2m::cli::VariantTrainArgs& a) {
-  std::string s = "t2m train promotion --variant go --out " + a.out;
-  if (a.steps) s += " --steps " + std::to_string(a.steps);
-  if (a.batch) s += " --batch " + std::to_string(a.batch);
-  if (a.lr > 0) s += " --lr " + std::to_string(a.lr);
-  s += " --seed " + std::to_string(a.seed);
-  for (const auto& [k, v] : a.sets) s += " --set " + k + "=" + v;
-  return s;
-}
-
 void train_go(const t2m::cli::VariantTrainArgs& a) {
   a.check_keys({"frames", "keys", "width", "layers", "heads", "mlp_ratio", "diffusion_steps", "cond_drop", "warmup"});
   pm::GoDiffuserConfig mc;
@@ -55,15 +45,9 @@ void train_go(const t2m::cli::VariantTrainArgs& a) {
   tc.seed = a.seed;
   tc.warmup = a.get_int("warmup", tc.warmup);
   tc.validate();
-  if (!fs::exists(a.manifest)) throw Error("train promotion: no manifest at " + a.manifest + " (run `t2m data prepare`)");
-  fs::create_directories(a.out);
-
-  const auto manifest = t2m::data::load_manifest(a.manifest);
-  std::vector<std::string> names;
-  for (const auto& c : manifest.clips) names.push_back(c.name);
-  const auto splits = t2m::data::assign_splits(names);
   std::fprintf(stderr, "train promotion go: loading the train split ...\n");
-  const auto clips = t2m::data::load_split_clips(manifest, splits, t2m::data::Split::train, a.threads);
+  const auto clips = a.split_clips(t2m::data::Split::train);
+  fs::create_directories(a.out);
   const auto stats = t2m::data::clip_feature_stats(clips);
   t2m::Generator g(a.seed);
   auto model = std::make_shared<pm::GoDiffuser>(mc, g);
@@ -75,7 +59,7 @@ void train_go(const t2m::cli::VariantTrainArgs& a) {
   pm::GoBundle b;
   b.model = model;
   b.stats = stats;
-  b.train = {{"command", command_line(a)}, {"steps", r.steps}, {"config", tc.to_json()},
+  b.train = {{"command", a.command_line()}, {"steps", r.steps}, {"config", tc.to_json()},
              {"data", "Bandai-Namco-Research-Motiondataset 1+2 (CC BY-NC 4.0), train split"}};
   const std::string ckpt = a.out + "/promotion_go.t2mckpt";
   pm::save_go_checkpoint(b, ckpt);

@@ -16,6 +16,9 @@
 #include <string>
 #include <vector>
 
+#include "models/data/loader.h"
+#include "models/data/splits.h"
+
 namespace t2m::cli {
 
 struct VariantTrainArgs {
@@ -34,6 +37,12 @@ struct VariantTrainArgs {
   double get_double(const std::string& key, double fallback) const;
   // Throws t2m::Error naming the first --set key that is not in `known`.
   void check_keys(const std::vector<std::string>& known) const;
+  // The clips of one split (the --manifest data, splits of models/data/splits.h, --threads for loading); a missing
+  // manifest is an error that names it and `t2m data prepare`.
+  std::vector<data::MotionClip> split_clips(data::Split split) const;
+  // The command that reproduces this run: "t2m train FAMILY --variant V --out OUT [--steps N] [--batch B] [--lr X]
+  // --seed S [--set K=V]..." (stored in the shipped checkpoints' metadata).
+  std::string command_line() const;
 };
 
 using VariantTrainer = void (*)(const VariantTrainArgs&);
