@@ -47,12 +47,7 @@ void train_vq(const VariantTrainArgs& a) {
   mc.depth = a.get_int("depth", mc.depth);
   cs::VqTrainConfig tc;
   tc.window = a.get_int("window", tc.window);
-  if (a.steps) tc.steps = a.steps;
-  if (a.batch) tc.batch = a.batch;
-  if (a.lr > 0) tc.lr = a.lr;
-  if (a.save_every) tc.save_every = a.save_every;
-  tc.stop_at = a.stop_at;
-  tc.seed = a.seed;
+  t2m::cli::apply_common_flags(a, tc);
   fs::create_directories(a.out);
   const auto train = a.split_clips(t2m::data::Split::train);
   const auto stats = t2m::data::clip_feature_stats(train, true);
@@ -108,12 +103,7 @@ void train_ar(const VariantTrainArgs& a, cs::ArCond cond) {
   mc.heads = a.get_int("heads", mc.heads), mc.max_motion = a.get_int("max_motion", mc.max_motion);
   cs::ArTrainConfig tc;
   tc.corrupt = a.get_double("corrupt", tc.corrupt);
-  if (a.steps) tc.steps = a.steps;
-  if (a.batch) tc.batch = a.batch;
-  if (a.lr > 0) tc.lr = a.lr;
-  if (a.save_every) tc.save_every = a.save_every;
-  tc.stop_at = a.stop_at;
-  tc.seed = a.seed;
+  t2m::cli::apply_common_flags(a, tc);
   fs::create_directories(a.out);
   t2m::Generator g(a.seed);
   auto model = std::make_shared<cs::ArGpt>(mc, g);

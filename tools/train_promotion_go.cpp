@@ -37,12 +37,7 @@ void train_go(const t2m::cli::VariantTrainArgs& a) {
   mc.cond_drop = a.get_double("cond_drop", mc.cond_drop);
   mc.validate();
   pm::GoTrainConfig tc;
-  if (a.steps) tc.steps = a.steps;
-  if (a.batch) tc.batch = a.batch;
-  if (a.lr > 0) tc.lr = a.lr;
-  if (a.save_every) tc.save_every = a.save_every;
-  tc.stop_at = a.stop_at;
-  tc.seed = a.seed;
+  t2m::cli::apply_common_flags(a, tc);
   tc.warmup = a.get_int("warmup", tc.warmup);
   tc.validate();
   std::fprintf(stderr, "train promotion go: loading the train split ...\n");

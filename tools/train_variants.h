@@ -45,6 +45,18 @@ struct VariantTrainArgs {
   std::string command_line() const;
 };
 
+// Copies the common flags onto a trainer config with fields steps, batch, lr, save_every, stop_at and seed: flags
+// left at 0 keep the config's defaults (stop_at and seed are always copied).
+template <class TrainConfig>
+void apply_common_flags(const VariantTrainArgs& a, TrainConfig& tc) {
+  if (a.steps) tc.steps = a.steps;
+  if (a.batch) tc.batch = a.batch;
+  if (a.lr > 0) tc.lr = a.lr;
+  if (a.save_every) tc.save_every = a.save_every;
+  tc.stop_at = a.stop_at;
+  tc.seed = a.seed;
+}
+
 using VariantTrainer = void (*)(const VariantTrainArgs&);
 
 struct TrainVariant {
