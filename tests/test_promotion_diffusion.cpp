@@ -105,6 +105,58 @@ TEST(DiffusionSchedule, SamplerOnToyTwoPointData) {
   EXPECT_GT((double)near / n, 0.98);
 }
 
+// DDIM with every step and eta = 1 is the DDPM ancestral sampler: same draws, same result.
+TEST(DiffusionSchedule, DdimWithAllStepsAndEtaOneIsDdpm) {
+  const auto s = DiffusionSchedule::linear(50, 0.00085, 0.012);
+  auto predict = [&](const Tensor& x, int t) { return tanh(add(mul(x, 0.3 + 0.01 * t), 0.2)); };
+  Generator g1(4), g2(4);
+  const Tensor a = promotion::ddpm_sample(s, {64, 3}, predict, g1);
+  const Tensor b = promotion::ddim_sample(s, {64, 3}, predict, g2, 50, 1.0);
+  const auto va = a.to_vector<float>(), vb = b.to_vector<float>();
+  for (size_t i = 0; i < va.size(); ++i) ASSERT_NEAR(va[i], vb[i], 1e-5) << i;
+  EXPECT_EQ(g1.offset(), g2.offset());  // the same number of draws
+}
+
+TEST(DiffusionSchedule, DdimTimestepsAreStridedAndStartAtTheLast) {
+  EXPECT_EQ(promotion::ddim_timesteps(1000, 4), (std::vector<int>{999, 749, 499, 249}));
+  EXPECT_EQ(promotion::ddim_timesteps(5, 5), (std::vector<int>{4, 3, 2, 1, 0}));
+  EXPECT_EQ(promotion::ddim_timesteps(10, 1), (std::vector<int>{9}));
+  EXPECT_THROW(promotion::ddim_timesteps(10, 0), Error);
+  EXPECT_THROW(promotion::ddim_timesteps(10, 11), Error);
+}
+
+// Deterministic DDIM (eta = 0) with an exact x_0 predictor lands on x_0 from any start and any stride; on the toy
+// two-point data the strided stochastic sampler (eta = 1, 20 of 1000 steps) keeps the proportions.
+TEST(DiffusionSchedule, StridedDdimOnToyData) {
+  const auto s = DiffusionSchedule::linear(1000, 0.00085, 0.012);
+  Generator g(3);
+  const Tensor x0 = Tensor::full({8, 2}, 0.4);
+  const Tensor det = promotion::ddim_sample(s, {8, 2}, [&](const Tensor&, int) { return x0; }, g, 7, 0.0);
+  for (float v : det.to_vector<float>()) EXPECT_NEAR(v, 0.4f, 1e-6);
+  const int64_t n = 4000;
+  auto predict = [&](const Tensor& x, int t) {
+    const double ab = s.alpha_bar(t), a = std::sqrt(ab);
+    return tanh(add(mul(x, a / (1 - ab)), std::atanh(0.5)));
+  };
+  for (double eta : {0.0, 1.0}) {
+    const auto v = promotion::ddim_sample(s, {n, 1}, predict, g, 20, eta).to_vector<float>();
+    int pos = 0, near = 0;
+    for (float x : v) {
+      pos += x > 0;
+      near += std::fabs(std::fabs(x) - 1) < 0.05;
+    }
+    EXPECT_NEAR((double)pos / n, 0.75, 0.03) << eta;
+    EXPECT_GT((double)near / n, 0.97) << eta;
+  }
+  // ddim_step's bad input.
+  const Tensor x = Tensor::zeros({2, 3});
+  EXPECT_THROW(s.ddim_step(x, x, 5, 5, 1.0, x), Error);   // p must be < t
+  EXPECT_THROW(s.ddim_step(x, x, 5, -2, 1.0, x), Error);
+  EXPECT_THROW(s.ddim_step(x, x, 5, 2, 1.5, x), Error);   // eta outside [0, 1]
+  EXPECT_THROW(s.ddim_step(x, x, 5, 2, 1.0, Tensor()), Error);  // noise needed
+  EXPECT_THROW(promotion::ddim_sample(s, {2, 3}, [&](const Tensor& xt, int) { return xt; }, g, 0, 1.0), Error);
+}
+
 TEST(DiffusionSchedule, RejectsBadInput) {
   EXPECT_THROW(DiffusionSchedule::cosine(0), Error);
   EXPECT_THROW(DiffusionSchedule::linear(10, 0.0, 0.1), Error);

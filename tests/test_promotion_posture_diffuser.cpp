@@ -117,6 +117,19 @@ TEST(PostureDiffuser, SamplingIsSeededAndGuided) {
   for (size_t i = 0; i < u1.size(); ++i) EXPECT_NEAR(u1[i], u2[i], 1e-5);
   EXPECT_THROW(sample_postures(m, {}, 1, 0), Error);
   EXPECT_THROW(sample_postures(m, scripts, 0, 0), Error);
+  // Strided DDIM: all T steps with eta = 1 is the default DDPM; fewer steps give other, finite samples.
+  PostureSampleOptions d;
+  d.steps = (int)m.net->config().diffusion_steps;
+  const auto full = sample_postures(m, scripts, 3, 7, d);
+  for (size_t i = 0; i < a.size(); ++i) ASSERT_NEAR(full[i], a[i], 1e-4);
+  d.steps = 5;
+  const auto fast = sample_postures(m, scripts, 3, 7, d);
+  for (float f : fast) ASSERT_TRUE(std::isfinite(f));
+  EXPECT_NE(fast, a);
+  d.steps = (int)m.net->config().diffusion_steps + 1;
+  EXPECT_THROW(sample_postures(m, scripts, 1, 0, d), Error);
+  d.steps = -1;
+  EXPECT_THROW(sample_postures(m, scripts, 1, 0, d), Error);
 }
 
 TEST(PostureDiffuser, CheckpointRoundTrip) {

@@ -1,6 +1,8 @@
 // cmd_data_posescripts.cpp — `t2m data posescripts`: our PoseScript-style set (PRO-Motion posture scripts of the
 // key poses of one split of the Bandai data, models/promotion/posture_script_set.h) for inspection: prints the
 // scripts of the first --limit key poses, optionally the posecode statistics (--stats) and a JSONL file (--out).
+// --agreement N: the posture diffuser's posecode agreement on N scripts of the split (--sample samples each,
+// default 4; --sampler-steps, --eta, --guidance), against random train key poses (posture_agreement.h).
 #include <chrono>
 #include <cstdio>
 #include <fstream>
@@ -10,6 +12,7 @@
 
 #include "models/promotion/planner.h"
 #include "models/promotion/pose.h"
+#include "models/promotion/posture_agreement.h"
 #include "models/promotion/posture_diffuser_sampler.h"
 #include "models/promotion/posecodes.h"
 #include "models/promotion/posture_script_set.h"
@@ -24,7 +27,8 @@ namespace pm = t2m::promotion;
 
 struct Args {
   std::string split = "test", out, data_dir, cache_dir, plan, table = "models/checkpoints/promotion_planner.json";
-  int limit = 5, keys = pm::kDefaultKeyFrames, threads = 0, sample = 0;
+  int limit = 5, keys = pm::kDefaultKeyFrames, threads = 0, sample = 0, agreement = 0;
+  pm::PostureSampleOptions sampler;
   std::string posture = "models/checkpoints/promotion_posture.t2mckpt";
   bool mirror = false, stats = false;
 };
@@ -65,7 +69,7 @@ void run_plan(const Args& a) {
   if (a.threads > 0) t2m::set_num_threads(a.threads);
   const pm::PostureModel m = pm::load_posture_model(a.posture);
   const auto t0 = std::chrono::steady_clock::now();
-  const std::vector<float> poses = pm::sample_postures(m, p.scripts, a.sample, 0);
+  const std::vector<float> poses = pm::sample_postures(m, p.scripts, a.sample, 0, a.sampler);
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   for (size_t i = 0; i < p.scripts.size(); ++i) {
     std::printf("F%zu agreement:", i + 1);
@@ -92,6 +96,13 @@ void run(const Args& a) {
     std::printf("\n[%s key %d frame %d%s]\n%s\n", clips[s.clip[i]].name.c_str(), s.key[i], s.frame[i],
                 s.mirrored[i] ? " mirrored" : "", s.scripts[i].c_str());
   if (a.stats) print_stats(s);
+  if (a.agreement > 0) {
+    const pm::PostureModel m = pm::load_posture_model(a.posture);
+    const pm::PostureScriptSet ref =
+        pm::build_posture_script_set(t2m::cli::split_clips(d, t2m::data::Split::train, a.threads), a.keys, false);
+    const auto r = pm::posture_agreement(m, s, ref, a.agreement, a.sample > 0 ? a.sample : 4, a.sampler, 7);
+    std::printf("\nposture agreement (%s split, seed 7): %s\n", a.split.c_str(), r.to_json(a.sampler).dump().c_str());
+  }
   if (!a.out.empty()) {
     std::ofstream f(a.out);
     if (!f) throw Error("data posescripts: cannot write --out " + a.out);
@@ -116,6 +127,10 @@ void add(CLI::App& app) {
   c->add_option("--out", a->out, "write every item as JSON lines");
   c->add_option("--plan", a->plan, "instead: print the planner's key-frame scripts for this prompt");
   c->add_option("--sample", a->sample, "with --plan: sample N poses per key frame (posture diffuser)");
+  c->add_option("--agreement", a->agreement, "score the posture diffuser on N scripts of the split");
+  c->add_option("--sampler-steps", a->sampler.steps, "posture sampling steps (0 = all, DDPM; else DDIM)");
+  c->add_option("--eta", a->sampler.eta, "DDIM stochasticity in [0, 1]");
+  c->add_option("--guidance", a->sampler.guidance, "posture classifier-free guidance w");
   c->add_option("--posture", a->posture, "posture diffuser for --sample (default models/checkpoints/...)");
   c->add_option("--table", a->table, "planner table for --plan (default models/checkpoints/promotion_planner.json)");
   c->add_option("--data", a->data_dir, "Data directory (see data prepare)");

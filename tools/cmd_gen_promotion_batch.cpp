@@ -28,7 +28,7 @@ namespace pm = t2m::promotion;
 
 struct Args {
   std::string out, checkpoints = "models/checkpoints", manifest, split = "test";
-  int clips = 0, candidates = 8, threads = 0;
+  int clips = 0, candidates = 8, threads = 0, posture_steps = pm::PromotionOptions().posture_steps;
   uint64_t seed = 0;
 };
 
@@ -51,6 +51,7 @@ void run(const Args& a) {
   std::vector<t2m::eval::MotionEntry> entries;
   pm::PromotionOptions o;
   o.candidates = a.candidates;
+  o.posture_steps = a.posture_steps;
   const auto t0 = std::chrono::steady_clock::now();
   t2m::nn::Progress bar((int64_t)n, "eval promotion-gen");
   json used = json::array();
@@ -75,7 +76,8 @@ void run(const Args& a) {
                               " " + a.split + " clips"},
                      {"data", "Bandai-Namco-Research-Motiondataset 1+2 (CC BY-NC 4.0), " + a.split +
                                   " split, captions from its labels (seed 7, index 0)"},
-                     {"clips", used}, {"wall_s", wall}, {"seed", a.seed}, {"candidates", a.candidates}};
+                     {"clips", used}, {"wall_s", wall}, {"seed", a.seed}, {"candidates", a.candidates},
+                     {"posture_steps", a.posture_steps}};
   t2m::eval::write_motion_dir(a.out, entries, {{"provenance", prov}});
   std::printf("eval promotion-gen: %zu motions in %.1f s -> %s (score: t2m eval motions %s)\n", n, wall,
               a.out.c_str(), a.out.c_str());
@@ -92,6 +94,8 @@ void add_eval_promotion_gen(CLI::App& app) {
   c->add_option("--clips", a->clips, "number of clips (0 = all)")->capture_default_str();
   c->add_option("--candidates", a->candidates, "posture candidates per script")->capture_default_str();
   c->add_option("--seed", a->seed, "seed of prompt 0")->capture_default_str();
+  c->add_option("--posture-steps", a->posture_steps, "posture sampling steps (0 = all 1000, DDPM)")
+      ->capture_default_str();
   c->add_option("--threads", a->threads, "threads (0 = default)");
   c->callback([a] { run(*a); });
 }

@@ -1,8 +1,11 @@
 // gen_promotion.cpp — `t2m generate "PROMPT" --model promotion --out DIR`: the PRO-Motion baseline (rule/template
 // planner -> posture diffuser -> Viterbi posture planning -> go-diffuser), models/promotion/promotion_pipeline.h.
-// Request mapping: seed -> PromotionOptions::seed; cfg (>= 0) -> the posture diffuser's guidance; steps and
-// length_s are not used (the go-diffuser's window fixes 64 frames = 2.13 s; the DDPMs use their trained step
-// counts), which metrics.json's info says.
+// Request mapping: seed -> PromotionOptions::seed; cfg (>= 0) -> the posture diffuser's guidance; steps (> 0) ->
+// the posture diffuser's sampling steps (DDIM; its T = 1000 is DDPM); length_s (> 0) -> chained go-diffuser
+// windows of 63 new frames each (promotion_pipeline.h: the nearest multiple of 63 frames plus one, at least 64).
+#include <algorithm>
+#include <cmath>
+
 #include "models/promotion/promotion_pipeline.h"
 #include "tools/kinematic_models.h"
 
@@ -14,12 +17,13 @@ t2m::cli::KinematicResult generate_promotion(const t2m::cli::KinematicRequest& r
   pm::PromotionOptions o;
   o.seed = r.seed;
   if (r.cfg >= 0) o.posture_guidance = r.cfg;
+  if (r.steps > 0) o.posture_steps = r.steps;
+  if (r.length_s > 0) o.frames = std::max<int64_t>(1, std::llround(r.length_s * 30));
   pm::PromotionResult g = pm::generate_promotion(m, r.prompt, o);
   t2m::cli::KinematicResult out;
   out.features = std::move(g.features);
   out.info = g.info;
   out.info["requested_length_s"] = r.length_s;
-  out.info["length_note"] = "fixed go-diffuser window; requested length and steps are not used";
   return out;
 }
 

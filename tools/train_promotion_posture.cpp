@@ -15,6 +15,7 @@
 #include "models/data/loader.h"
 #include "models/data/splits.h"
 #include "models/promotion/planner_table.h"
+#include "models/promotion/posture_agreement.h"
 #include "models/promotion/posecodes.h"
 #include "models/promotion/posture_diffuser_sampler.h"
 #include "models/promotion/posture_diffuser_train.h"
@@ -31,34 +32,6 @@ namespace fs = std::filesystem;
 namespace pm = t2m::promotion;
 using json = nlohmann::json;
 using t2m::Error;
-
-// Mean posecode agreement (posecodes.h) of n samples per script with the codes the scripts were made from, over
-// `count` test items spread evenly over the set; plus the same for random train poses (a no-text reference).
-json agreement_report(const pm::PostureModel& m, const pm::PostureScriptSet& test, const pm::PostureScriptSet& train,
-                      int count, int n, double guidance, uint64_t seed) {
-  count = std::min(count, test.size());
-  std::vector<int> items;
-  for (int i = 0; i < count; ++i) items.push_back((int)((int64_t)i * test.size() / count));
-  std::vector<std::string> scripts;
-  for (int i : items) scripts.push_back(test.scripts[i]);
-  pm::PostureSampleOptions o;
-  o.guidance = guidance;
-  const auto t0 = std::chrono::steady_clock::now();
-  const std::vector<float> poses = pm::sample_postures(m, scripts, n, seed, o);
-  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  double model = 0, random = 0;
-  t2m::Generator g(seed + 1);
-  const auto pick = t2m::randint({(int64_t)count * n}, g, 0, train.size()).to_vector<int64_t>();
-  for (int s = 0; s < count; ++s)
-    for (int j = 0; j < n; ++j) {
-      const std::vector<int> target = test.codes_of(items[s]);
-      model += pm::posecode_agreement(target, pm::pose_posecodes(poses.data() + ((size_t)s * n + j) * pm::kPoseDim));
-      random += pm::posecode_agreement(target, train.codes_of((int)pick[(size_t)s * n + j]));
-    }
-  return {{"scripts", count}, {"samples_per_script", n}, {"guidance", guidance},
-          {"agreement_model", model / (count * n)}, {"agreement_random_train_pose", random / (count * n)},
-          {"sampling_seconds", secs}};
-}
 
 void train_posture(const t2m::cli::VariantTrainArgs& a) {
   a.check_keys({"width", "layers", "heads", "text_dim", "text_layers", "max_tokens", "cond_drop", "eval",
@@ -126,8 +99,10 @@ void train_posture(const t2m::cli::VariantTrainArgs& a) {
   table.source = {{"data", "Bandai-Namco train split, 8 key poses per clip + mirrors"}, {"items", train.size()},
                   {"command", "t2m train promotion --variant posture"}};
   pm::save_planner_table(table, table_path);
-  const json agree = agreement_report(m, test, train, (int)a.get_int("agree_scripts", 64),
-                                      (int)a.get_int("agree_samples", 4), a.get_double("guidance", 2.0), 7);
+  pm::PostureSampleOptions so;
+  so.guidance = a.get_double("guidance", 2.0);
+  const json agree = pm::posture_agreement(m, test, train, (int)a.get_int("agree_scripts", 64),
+                                           (int)a.get_int("agree_samples", 4), so, 7).to_json(so);
   const json summary = {{"steps", r.steps}, {"val_loss", val_loss}, {"train_loss_eval", train_loss},
                         {"eval_items", a.get_int("eval_items", 2144)}, {"test_agreement", agree},
                         {"parameters", net->num_parameters()}, {"model", mc.to_json()}, {"train", tc.to_json()}};

@@ -129,6 +129,26 @@ Tensor DiffusionSchedule::ddpm_step(const Tensor& x_t, const Tensor& x0_hat, int
                  std::vector<double>(B, noise ? std::sqrt(posterior_variance(t)) : 0.0));
 }
 
+// DDIM Eq 12 with sigma of Eq 16, written as one linear combination of x0_hat, x_t and z.
+Tensor DiffusionSchedule::ddim_step(const Tensor& x_t, const Tensor& x0_hat, int t, int p, double eta,
+                                    const Tensor& z) const {
+  check_same(x_t, x0_hat, "x_t", "x0_hat");
+  check_step(t);
+  if (p < -1 || p >= t)
+    throw Error("diffusion_schedule: ddim_step needs -1 <= p < t, got t = " + std::to_string(t) + ", p = " +
+                std::to_string(p));
+  if (!(eta >= 0 && eta <= 1)) throw Error("diffusion_schedule: eta " + std::to_string(eta) + " outside [0, 1]");
+  const double ab = abar_[t], ab_p = alpha_bar(p);
+  const double sigma = eta * std::sqrt(std::max(0.0, (1 - ab_p) / (1 - ab) * (1 - ab / ab_p)));
+  const double dir = std::sqrt(std::max(0.0, 1 - ab_p - sigma * sigma)) / std::sqrt(1 - ab);
+  const double c0 = std::sqrt(ab_p) - dir * std::sqrt(ab), c1 = dir;
+  const int64_t B = x_t.size(0);
+  const bool noise = sigma > 0;
+  if (noise) check_same(x_t, z, "x_t", "z");
+  return combine(x0_hat, x_t, noise ? z : Tensor(), std::vector<double>(B, c0), std::vector<double>(B, c1),
+                 std::vector<double>(B, noise ? sigma : 0.0));
+}
+
 Tensor DiffusionSchedule::sample_steps(int64_t batch, Generator& gen) const {
   return randint({batch}, gen, 0, steps());
 }
@@ -139,6 +159,28 @@ Tensor ddpm_sample(const DiffusionSchedule& s, const Shape& shape,
   for (int t = s.steps() - 1; t >= 0; --t) {
     const Tensor x0 = predict_x0(x, t);
     x = s.ddpm_step(x, x0, t, t > 0 ? rand_normal(shape, gen) : Tensor());
+  }
+  return x;
+}
+
+std::vector<int> ddim_timesteps(int T, int n) {
+  if (n < 1 || n > T)
+    throw Error("diffusion_schedule: DDIM steps " + std::to_string(n) + " outside [1, " + std::to_string(T) + "]");
+  std::vector<int> tau(n);
+  for (int i = 0; i < n; ++i) tau[n - 1 - i] = (int)(((int64_t)(i + 1) * T) / n) - 1;
+  return tau;
+}
+
+Tensor ddim_sample(const DiffusionSchedule& s, const Shape& shape,
+                   const std::function<Tensor(const Tensor& x_t, int t)>& predict_x0, Generator& gen, int n,
+                   double eta) {
+  const std::vector<int> tau = ddim_timesteps(s.steps(), n);
+  if (!(eta >= 0 && eta <= 1)) throw Error("diffusion_schedule: eta " + std::to_string(eta) + " outside [0, 1]");
+  Tensor x = rand_normal(shape, gen);
+  for (size_t i = 0; i < tau.size(); ++i) {
+    const int t = tau[i], p = i + 1 < tau.size() ? tau[i + 1] : -1;
+    const Tensor x0 = predict_x0(x, t);
+    x = s.ddim_step(x, x0, t, p, eta, p >= 0 && eta > 0 ? rand_normal(shape, gen) : Tensor());
   }
   return x;
 }

@@ -14,6 +14,11 @@
 //             var[t] = beta[t] (1 - alpha_bar[t-1]) / (1 - alpha_bar[t])  (DDPM Eq 6–7; alpha_bar[-1] = 1, so
 //             var[0] = 0 and the last step returns x_0 exactly)
 //   ddpm_step: x_{t-1} = mean + sqrt(var[t]) z, z ~ N(0, I) given by the caller (ignored at t = 0).
+// DDIM (Song et al. 2021, Eq 12) from step t to an earlier step p (p = -1: the clean sample), x_0 estimate x0:
+//   eps = (x_t - sqrt(abar[t]) x0) / sqrt(1 - abar[t]),
+//   sigma = eta sqrt((1 - abar[p]) / (1 - abar[t]) (1 - abar[t] / abar[p])),               (DDIM Eq 16)
+//   x_p = sqrt(abar[p]) x0 + sqrt(1 - abar[p] - sigma^2) eps + sigma z.
+//   eta = 0: deterministic; eta = 1 with p = t - 1: exactly the DDPM ancestral step (sigma^2 = var[t]).
 // Tensors: x_0, x_t, eps, z of one shape (B, ...) and one float dtype; t an int64 (B) tensor (q_sample: one step
 // per batch row) or one int (ddpm_step: the same step for the whole batch). Computed in double per element.
 // Errors (t2m::Error, "diffusion_schedule: ..."): T < 1, betas outside (0, 1), s < 0; shapes/dtypes that differ;
@@ -42,6 +47,8 @@ class DiffusionSchedule {
   Tensor q_sample(const Tensor& x0, const Tensor& t, const Tensor& eps) const;
   // DDPM Eq 6–7: one ancestral step from x_t at step t with the model's x_0 estimate.
   Tensor ddpm_step(const Tensor& x_t, const Tensor& x0_hat, int t, const Tensor& z) const;
+  // DDIM Eq 12: the step t -> p (-1 <= p < t) with stochasticity eta in [0, 1]; z ignored when sigma = 0.
+  Tensor ddim_step(const Tensor& x_t, const Tensor& x0_hat, int t, int p, double eta, const Tensor& z) const;
   // Uniform training steps in [0, T): int64 (B).
   Tensor sample_steps(int64_t batch, Generator& gen) const;
 
@@ -55,5 +62,15 @@ class DiffusionSchedule {
 // x_{t-1} = ddpm_step(x_t, predict_x0(x_t, t), t, z). All noise from `gen` (float32). Returns x_{-1}, the sample.
 Tensor ddpm_sample(const DiffusionSchedule& s, const Shape& shape,
                    const std::function<Tensor(const Tensor& x_t, int t)>& predict_x0, Generator& gen);
+
+// The strided DDIM sampler: n of the T steps, tau_i = floor((i + 1) T / n) - 1 (i = n-1 .. 0, so T-1 is always
+// the first), x_{T-1} ~ N(0, I), then ddim_step(tau_i -> tau_{i-1}) down to -1. Noise is drawn only when sigma > 0,
+// in the order ddpm_sample draws it, so ddim_sample(n = T, eta = 1) reproduces ddpm_sample for the same generator.
+// Errors: n outside [1, T], eta outside [0, 1].
+Tensor ddim_sample(const DiffusionSchedule& s, const Shape& shape,
+                   const std::function<Tensor(const Tensor& x_t, int t)>& predict_x0, Generator& gen, int n,
+                   double eta);
+// The DDIM subsequence of n steps in descending order (T-1 first).
+std::vector<int> ddim_timesteps(int T, int n);
 
 }  // namespace t2m::promotion

@@ -26,13 +26,17 @@ std::vector<float> sample_postures(const PostureModel& m, const std::vector<std:
   const ScriptContext null = net.null_context(B);
   const DiffusionSchedule sched = DiffusionSchedule::linear((int)cfg.diffusion_steps, cfg.beta_start, cfg.beta_end);
   Generator gen(seed);
-  const Tensor x = ddpm_sample(sched, {B, kPoseDim}, [&](const Tensor& x_t, int t) {
+  const int steps = opt.steps == 0 ? sched.steps() : opt.steps;
+  if (steps < 1 || steps > sched.steps())
+    throw Error("sample_postures: steps " + std::to_string(opt.steps) + " outside [0, " +
+                std::to_string(sched.steps()) + "] (0 = all)");
+  const Tensor x = ddim_sample(sched, {B, kPoseDim}, [&](const Tensor& x_t, int t) {
     const Tensor tt = Tensor::full({B}, (double)t, DType::i64);
     const ag::Variable xv(x_t);
     const Tensor c = net.forward(xv, tt, cond).data();
     const Tensor u = net.forward(xv, tt, null).data();
     return add(u, mul(sub(c, u), opt.guidance));  // paper Eq 3
-  }, gen);
+  }, gen, steps, opt.eta);
   std::vector<float> out = x.contiguous().to_vector<float>();
   denormalize_poses(out, m.stats);
   return out;

@@ -1,6 +1,8 @@
 // promotion_pipeline.cpp — the stages of PRO-Motion wired together.
 #include "models/promotion/promotion_pipeline.h"
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 
 #include "models/data/features.h"
@@ -72,17 +74,32 @@ std::vector<float> go_from_key_poses(const GoBundle& go, const std::vector<float
   return f;
 }
 
+// Number of chained go-diffuser windows for a requested length (header: Length).
+int go_windows(int64_t frames, int64_t window) {
+  if (frames <= 0) return 1;
+  return (int)std::max<int64_t>(1, std::llround((double)(frames - 1) / (double)(window - 1)));
+}
+
 PromotionResult generate_promotion(const PromotionModels& m, const std::string& prompt, const PromotionOptions& o) {
   if (o.candidates < 1) throw Error("promotion: candidates must be >= 1, got " + std::to_string(o.candidates));
+  if (o.frames < 0 || o.frames > 30 * 600) throw Error("promotion: frames must be in [0, 18000]");
   const int K = (int)m.go.model->config().keys;
+  const int64_t T = m.go.model->config().frames;
+  const int W = go_windows(o.frames, T), Kall = W * (K - 1) + 1;
   PromotionResult r;
-  const Plan plan = plan_postures(m.planner, prompt, K);  // Sec 3.2 (rule/template planner, no LLM)
+  const Plan plan = plan_postures(m.planner, prompt, Kall);  // Sec 3.2 (rule/template planner, no LLM)
   r.scripts = plan.scripts;
   PostureSampleOptions so;
   so.guidance = o.posture_guidance;
+  so.steps = o.posture_steps;
   const std::vector<float> cands = sample_postures(m.posture, plan.scripts, o.candidates, o.seed, so);  // Sec 3.3
-  r.choice = plan_key_poses(m.encoders, cands, K, o.candidates, plan.scripts);
-  r.features = go_from_key_poses(m.go, r.choice.poses, o.seed + 1, o.go_guidance);
+  r.choice = plan_key_poses(m.encoders, cands, Kall, o.candidates, plan.scripts);
+  for (int w = 0; w < W; ++w) {  // Sec 3.4, one window per K key poses (shared boundary keys)
+    const auto k0 = r.choice.poses.begin() + (ptrdiff_t)w * (K - 1) * kPoseDim;
+    const std::vector<float> keys(k0, k0 + (ptrdiff_t)K * kPoseDim);
+    const std::vector<float> f = go_from_key_poses(m.go, keys, o.seed + 1 + w, o.go_guidance);
+    r.features.insert(r.features.end(), f.begin() + (w == 0 ? 0 : data::kFeatureDim), f.end());
+  }
   nlohmann::json clauses = nlohmann::json::array();
   for (const auto& c : plan.clauses)
     clauses.push_back({{"text", c.text}, {"content", c.content}, {"style", c.style}, {"entry", c.entry},
@@ -90,7 +107,9 @@ PromotionResult generate_promotion(const PromotionModels& m, const std::string& 
   r.info = {{"model", "promotion"}, {"planner", "rule/template (no LLM)"}, {"clauses", clauses},
             {"scripts", plan.scripts}, {"candidates_per_script", o.candidates}, {"viterbi_path", r.choice.path},
             {"viterbi_log_prob", r.choice.score}, {"posture_guidance", o.posture_guidance},
-            {"go_guidance", o.go_guidance}, {"frames", m.go.model->config().frames}, {"fps", 30},
+            {"posture_steps", o.posture_steps == 0 ? (int)m.posture.net->config().diffusion_steps : o.posture_steps},
+            {"go_guidance", o.go_guidance}, {"frames", (int64_t)r.features.size() / data::kFeatureDim},
+            {"go_windows", W}, {"key_frames", Kall}, {"fps", 30},
             {"seed", o.seed}};
   return r;
 }

@@ -5,9 +5,13 @@
 //
 // Files in the checkpoints directory: promotion_planner.json, promotion_posture.t2mckpt, promotion_encoders.t2mckpt,
 // promotion_go.t2mckpt. Each stage's pose normalisation comes from its own file (they are all train-split stats).
-// The go-diffuser's window fixes the length (64 frames = 2.13 s at 30 fps by default) and K (8): the planner is
-// asked for K scripts; the key poses go to the frames of pose.h's rule. Heading and position start at the origin
-// facing +X (features carry no absolute pose).
+// Length: the go-diffuser's window (T = 64 frames = 2.13 s at 30 fps, K = 8 key poses) is one unit. A longer
+// request chains W = max(1, round((frames - 1) / (T - 1))) windows that share their boundary key pose (ours; the
+// paper generates one window): the planner is asked for W (K - 1) + 1 scripts, Viterbi picks one pose per key over
+// the whole chain, window w takes keys w (K - 1) .. w (K - 1) + K - 1 and its own noise (seed + 1 + w), and the
+// windows' features are concatenated with each later window's first frame (the shared key frame) dropped:
+// W (T - 1) + 1 frames. The key poses go to the frames of pose.h's rule. Heading and position start at the origin
+// facing +X (features carry no absolute pose; root motion is velocity-coded, so windows join without a jump).
 // Determinism: every random draw comes from the seed (posture sampling: seed; go-diffuser: seed + 1).
 // Errors (t2m::Error): a missing checkpoint file (named, with the command that makes it), and those of the stages.
 #pragma once
@@ -34,7 +38,9 @@ PromotionModels load_promotion_models(const std::string& checkpoints_dir);
 struct PromotionOptions {
   int candidates = 8;            // N poses sampled per script
   double posture_guidance = 2.0; // posture diffuser CFG w
+  int posture_steps = 50;        // posture sampling steps: 0 = all T (DDPM), else strided DDIM (eta 1)
   double go_guidance = 1.0;      // go-diffuser CFG w (1 = conditional only)
+  int64_t frames = 0;            // requested length in frames: 0 = one go-diffuser window (see above)
   uint64_t seed = 0;
 };
 
