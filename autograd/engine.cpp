@@ -19,14 +19,31 @@ namespace {
 
 std::string label(const VariableImpl& v) { return v.name.empty() ? std::string() : " '" + v.name + "'"; }
 
-// grad (may be undefined) += g; the first gradient is copied so .grad never aliases another tensor.
-// A grad of another shape/dtype (the data was replaced by set_data) is replaced, not added to.
-void accumulate_into(Tensor& grad, const Tensor& g) {
-  if (!grad.defined() || grad.shape() != g.shape() || grad.dtype() != g.dtype()) {
+// True when g is the only handle on a contiguous storage of exactly its size: the engine may keep it as a .grad
+// without copying (nothing else can see or change it).
+bool sole_owner(const Tensor& g) {
+  const auto& st = g.storage();
+  return st && st.use_count() == 1 && g.offset() == 0 && g.is_contiguous() &&
+         st->nbytes == (size_t)g.numel() * dtype_size(g.dtype());
+}
+
+// v.grad (may be undefined) += g; .grad never aliases another tensor: the first gradient (no grad yet, or one
+// marked stale by zero_grad(), or of another shape/dtype after set_data) is adopted when the engine holds the only
+// handle on it, else copied (into the stale buffer when it fits). The same values as zeroing and adding, without
+// the zeroing pass and, usually, without the copy.
+void accumulate_into(VariableImpl& v, Tensor g) {
+  Tensor& grad = v.grad;
+  const bool fits = grad.defined() && grad.shape() == g.shape() && grad.dtype() == g.dtype();
+  if (fits && !v.grad_stale) {
+    add_(grad, g);
+  } else if (sole_owner(g)) {
+    grad = std::move(g);
+  } else if (fits) {
+    grad.copy_(g);
+  } else {
     grad = g.clone();
-    return;
   }
-  add_(grad, g);
+  v.grad_stale = false;
 }
 
 // True when every element is finite: sum(g * 0) is 0 unless some element is NaN or infinite.
@@ -77,7 +94,7 @@ void Variable::backward(const Tensor& seed, bool retain_graph) const {
   }
 
   if (!root->grad_fn) {  // a leaf: its gradient is the seed
-    accumulate_into(root->grad, g0);
+    accumulate_into(*root, std::move(g0));
     return;
   }
   std::vector<Node*> order = post_order(root->grad_fn.get());
@@ -97,7 +114,7 @@ void Variable::backward(const Tensor& seed, bool retain_graph) const {
     if (n->released || !n->backward)
       throw Error("backward: graph already freed at op '" + n->op +
                   "'; pass retain_graph=true to the first backward() to run backward through it again");
-    if (auto out = n->output.lock(); out && out->retains_grad) accumulate_into(out->grad, g);
+    if (auto out = n->output.lock(); out && out->retains_grad) accumulate_into(*out, g);
     std::vector<bool> need(n->inputs.size());
     for (size_t i = 0; i < need.size(); ++i) need[i] = n->inputs[i].defined();
     std::vector<Tensor> gin;
@@ -123,7 +140,7 @@ void Variable::backward(const Tensor& seed, bool retain_graph) const {
         throw Error("backward: op '" + n->op + "' produced a non-finite gradient for input " + std::to_string(i) +
                     " of shape " + shape_str(n->input_shapes[i]));
       if (e.leaf) {
-        accumulate_into(e.leaf->grad, gin[i]);
+        accumulate_into(*e.leaf, std::move(gin[i]));
       } else {
         Tensor& slot = grads[e.fn.get()];
         slot = slot.defined() ? add(slot, gin[i]) : std::move(gin[i]);

@@ -41,17 +41,18 @@ void Variable::set_data(Tensor data) const {
 
 Tensor& Variable::grad() const {
   checked();
-  return impl_->grad;
+  return impl_->current_grad();
 }
 
 void Variable::zero_grad() const {
   checked();
-  if (impl_->grad.defined()) impl_->grad.zero_();
+  if (impl_->grad.defined()) impl_->grad_stale = true;  // zeroed lazily: overwritten by the next gradient
 }
 
 void Variable::clear_grad() const {
   checked();
   impl_->grad = Tensor();
+  impl_->grad_stale = false;
 }
 
 bool Variable::requires_grad() const { return checked().requires_grad; }

@@ -25,6 +25,16 @@ namespace t2m::ag {
 struct VariableImpl {
   Tensor data;
   Tensor grad;                     // undefined until a gradient arrives
+  bool grad_stale = false;         // zero_grad() ran: grad's storage is logically zero (not yet written), so
+                                   // the next gradient is copied in instead of added (saves a pass over memory)
+  // The gradient with stale storage zeroed first (what every reader must use).
+  Tensor& current_grad() {
+    if (grad_stale) {
+      grad.zero_();
+      grad_stale = false;
+    }
+    return grad;
+  }
   bool requires_grad = false;
   bool retains_grad = false;       // non-leaf keeps its grad (retain_grad())
   std::string name;

@@ -15,7 +15,7 @@ namespace {
 const Tensor* grad_ptr(const std::pair<std::string, ag::Variable>& kv, const char* op) {
   const auto& impl = kv.second.impl();
   if (!impl || !impl->grad.defined()) return nullptr;
-  const Tensor& g = impl->grad;
+  const Tensor& g = impl->current_grad();
   if (g.dtype() != DType::f32 && g.dtype() != DType::f64)
     throw Error(std::string(op) + ": grad of '" + kv.first + "' has dtype " + dtype_name(g.dtype()));
   return &g;

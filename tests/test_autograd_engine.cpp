@@ -120,6 +120,26 @@ TEST(AutogradEngine, AccumulatesAcrossBackwardCallsUntilZeroGrad) {
   EXPECT_FALSE(x.grad().defined());
 }
 
+// zero_grad() only marks the buffer stale: the next gradient replaces it (no zeroing pass). Checked without
+// reading .grad() in between (reading materialises the zeros): a leaf used twice in one graph, two backward calls,
+// and a parameter that gets no gradient after zero_grad() all read as if zeroed eagerly.
+TEST(AutogradEngine, LazyZeroGradOverwritesThenAccumulates) {
+  Variable x = Variable::parameter(vec({1, -2, 3}), "x");
+  Variable unused = Variable::parameter(vec({5, 6}), "unused");
+  (ag::sum(x * x) + ag::sum(unused)).backward();
+  ag::sum(x * x).backward();
+  x.zero_grad();
+  unused.zero_grad();
+  ag::sum(x * x + x).backward();  // x twice: adopt or copy, then add
+  ag::sum(x * 2.0).backward();
+  EXPECT_EQ(values(x.grad()), (std::vector<double>{5, -1, 9}));
+  EXPECT_EQ(values(unused.grad()), (std::vector<double>{0, 0}));
+  x.zero_grad();
+  x.zero_grad();
+  ag::sum(x * 3.0).backward();
+  EXPECT_EQ(values(x.grad()), (std::vector<double>{3, 3, 3}));
+}
+
 TEST(AutogradEngine, SharedSubExpressionSumsAllPaths) {
   // y = b*b + b with b = exp(x): dy/dx = (2b + 1) * b.
   Variable x = Variable::parameter(vec({0.3, -0.7}));

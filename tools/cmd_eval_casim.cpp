@@ -138,7 +138,7 @@ void run(const Args& a) {
   bar.finish();
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const double cpu = double(std::clock() - c0) / CLOCKS_PER_SEC;
-  const std::string what = "CASIM baseline " + name + " for the " +
+  const std::string what = (a.model.empty() ? "CASIM baseline " : "kinematic model ") + name + " for the " +
                            (a.compose > 0 ? std::to_string(clips.size()) + " composed two-clause clips of the " : "") +
                            "captions of the " + a.split + " split (clip lengths capped at " +
                            std::to_string(a.max_frames) + " frames)";
