@@ -12,9 +12,11 @@
 // 60 steps (the actions depend on the step within the cycle, the physics is deterministic), so the smallest thread CPU
 // time of each (cycle step, env) over 10 cycles is that step's cost when no other process interrupted it or
 // evicted its caches in between: undisturbed_us_per_step = their mean, undisturbed_steps_per_s = 1e6 / that.
-// Args: {threads, variant}; variant 0 = ours (Euler, PGS 10 iterations, body-floor contacts as predefined pairs),
-// 1 = implicit integrator, 2 = + self collision, 3 = 100 solver iterations (MuJoCo's default), 4 = Newton with 8
-// iterations (converged; our default before 2026-12-02), 5 = PGS with 4 iterations.
+// Args: {threads, variant}; variant 0 = ours (Euler, elliptic cones, PGS 6 iterations, body-floor contacts as
+// predefined pairs), 1 = implicit integrator, 2 = + self collision, 3 = 100 solver iterations (MuJoCo's default),
+// 4 = pyramidal Newton 8 (converged; our default before 2026-12-02), 5 = pyramidal PGS 4, 6 = pyramidal PGS 10
+// (the default from 2026-12-02 until the switch to elliptic cones the same day), 7 = elliptic PGS 8, 8 = elliptic
+// PGS 10.
 #include <benchmark/benchmark.h>
 #include <stdlib.h>
 
@@ -30,8 +32,8 @@
 
 using namespace t2m::sim;
 
-static void BM_HumanoidControlStep(benchmark::State& state) {
-  const int threads = (int)state.range(0), variant = (int)state.range(1);
+// The solver / model variant of a benchmark row (see the file comment).
+static HumanoidOptions variant_options(int variant) {
   HumanoidOptions ho;
   if (variant == 1) ho.euler = false;
   if (variant == 2) ho.self_collision = true;
@@ -39,8 +41,18 @@ static void BM_HumanoidControlStep(benchmark::State& state) {
   if (variant == 4) {
     ho.solver = mjSOL_NEWTON;
     ho.solver_iterations = 8;
+    ho.elliptic_cones = false;
   }
-  if (variant == 5) ho.solver_iterations = 4;
+  if (variant == 5) ho.solver_iterations = 4, ho.elliptic_cones = false;
+  if (variant == 6) ho.elliptic_cones = false, ho.solver_iterations = 10;  // the default until 2026-12-02 (late)
+  if (variant == 7) ho.solver_iterations = 8;
+  if (variant == 8) ho.solver_iterations = 10;
+  return ho;
+}
+
+static void BM_HumanoidControlStep(benchmark::State& state) {
+  const int threads = (int)state.range(0), variant = (int)state.range(1);
+  const HumanoidOptions ho = variant_options(variant);
   auto h = Humanoid::create(ho);
   const int N = 8;
   VecEnv venv(h, N);
@@ -81,12 +93,7 @@ static double thread_cpu_s() {
 }
 
 static void BM_EnvStepUndisturbed(benchmark::State& state) {
-  HumanoidOptions ho;  // variant as in BM_HumanoidControlStep (0 = ours, 4 = Newton 8)
-  if (state.range(0) == 4) {
-    ho.solver = mjSOL_NEWTON;
-    ho.solver_iterations = 8;
-  }
-  if (state.range(0) == 5) ho.solver_iterations = 4;
+  const HumanoidOptions ho = variant_options((int)state.range(0));  // as in BM_HumanoidControlStep
   auto h = Humanoid::create(ho);
   // T2M_SIM_BENCH_CYCLES=1 makes it short enough for valgrind --tool=callgrind (instructions per step, docs/SIM.md).
   const char* cycles_env = std::getenv("T2M_SIM_BENCH_CYCLES");
@@ -121,7 +128,7 @@ static void BM_EnvStepUndisturbed(benchmark::State& state) {
   double load[1] = {0};
   if (getloadavg(load, 1) == 1) state.counters["load1"] = load[0];
 }
-BENCHMARK(BM_EnvStepUndisturbed)->ArgName("variant")->Arg(0)->Arg(4)->Arg(5)->Iterations(1)->UseRealTime()->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_EnvStepUndisturbed)->ArgName("variant")->Arg(0)->Arg(4)->Arg(5)->Arg(6)->Arg(7)->Arg(8)->Iterations(1)->UseRealTime()->Unit(benchmark::kMillisecond);
 
 BENCHMARK(BM_HumanoidControlStep)
     ->ArgNames({"threads", "variant"})
@@ -133,6 +140,11 @@ BENCHMARK(BM_HumanoidControlStep)
     ->Args({1, 4})
     ->Args({2, 4})
     ->Args({1, 5})
+    ->Args({1, 6})
+    ->Args({2, 6})
+    ->Args({1, 7})
+    ->Args({2, 7})
+    ->Args({2, 8})
     ->UseRealTime()
     ->MinTime(2.0)
     ->Unit(benchmark::kMillisecond);

@@ -167,6 +167,7 @@ std::string humanoid_mjcf(const HumanoidOptions& opt) {
     << "  <compiler angle=\"radian\" inertiafromgeom=\"true\"/>\n"
     << "  <option timestep=\"" << fmt_dt() << "\" integrator=\"" << (opt.euler ? "Euler" : "implicit")
     << "\" solver=\"" << solver << "\" iterations=\"" << opt.solver_iterations << "\" tolerance=\"1e-8\""
+    << " cone=\"" << (opt.elliptic_cones ? "elliptic" : "pyramidal") << "\""
     << (opt.self_collision ? "" : " collision=\"predefined\"") << "/>\n"
     << "  <size njmax=\"400\" nconmax=\"100\"/>\n"
     << "  <visual><quality shadowsize=\"2048\"/><map znear=\"0.01\"/></visual>\n"

@@ -13,8 +13,9 @@
 // is the world rotation of joint j in the canonical Motion (sim/skeleton.h) and Wref_j = rest_world_rot(j).
 //
 // Physics: dt = 1/450 s, 15 substeps per 30 Hz control step, Euler integrator (joint damping is implicit there),
-// PGS solver, 10 iterations (docs/SIM.md §8: 17 % fewer instructions than converged Newton, 0.15 mm mean deviation
-// per control step). Contacts: only body–floor, listed as explicit <pair>s with collision="predefined" (no broadphase;
+// elliptic friction cones (true Coulomb cones, 3 constraint rows per contact instead of the pyramid's 4), PGS solver,
+// 6 iterations (docs/SIM.md §8: 16 % fewer instructions per control step than pyramidal PGS 10, 0.20 mm mean and
+// 0.66 mm largest one-step deviation from a converged Newton solution of the same model). Contacts: only body–floor, listed as explicit <pair>s with collision="predefined" (no broadphase;
 // the same contacts as geoms with contype 1 / conaffinity 0 against a 1 / 1 floor, which the geoms also carry),
 // no self collision (self_collision = true: dynamic contacts between all geoms instead); feet and toes are boxes
 // with flat soles. Position actuators: ctrlrange = the hinge range,
@@ -60,11 +61,12 @@ std::vector<float> humanoid_offsets();
 
 struct HumanoidOptions {
   int solver = mjSOL_PGS;           // constraint solver: mjSOL_PGS, mjSOL_NEWTON or mjSOL_CG
-  int solver_iterations = 10;       // solver iterations per physics step (Newton converges in ~1.5 of its 8)
+  int solver_iterations = 6;        // solver iterations per physics step (PGS stops at this cap on most steps)
   bool euler = true;                // false: implicit integrator
   double floor_friction = 1.0;
   double gain_scale = 1.0;          // multiplies every kp (and kd)
   bool self_collision = false;      // true: body geoms also collide with each other (slower)
+  bool elliptic_cones = true;       // friction cones: true = elliptic (3 rows per contact), false = pyramidal (4)
 };
 // The MJCF text of our humanoid (deterministic for the given options).
 std::string humanoid_mjcf(const HumanoidOptions& opt = {});

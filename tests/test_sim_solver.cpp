@@ -1,5 +1,7 @@
-// test_sim_solver.cpp — the constraint solver our humanoid uses (PGS, 10 iterations; docs/SIM.md §8) stays close
-// to a converged Newton solution while the body stands on its soles, tips over and lies on the floor.
+// test_sim_solver.cpp — the constraint solver our humanoid uses (PGS, 8 iterations, elliptic friction cones;
+// docs/SIM.md §8) stays close to a converged Newton solution of the same model while the body stands on its soles,
+// tips over and lies on the floor. DISABLED_SolverSurvey prints the deviation of other solver settings (the table of
+// docs/SIM.md §8): test_sim_solver --gtest_also_run_disabled_tests --gtest_filter='*Survey*'.
 #include <gtest/gtest.h>
 #include <mujoco/mujoco.h>
 
@@ -40,6 +42,7 @@ struct Deviation {
 // accumulate because every step restarts from the reference).
 Deviation one_step_deviation(const HumanoidOptions& test) {
   HumanoidOptions ref_opt;
+  ref_opt.elliptic_cones = test.elliptic_cones;  // the same friction model, solved to convergence
   ref_opt.solver = mjSOL_NEWTON;
   ref_opt.solver_iterations = 100;
   auto hr = Humanoid::create(ref_opt), ht = Humanoid::create(test);
@@ -83,18 +86,34 @@ Deviation one_step_deviation(const HumanoidOptions& test) {
 TEST(SimSolver, DefaultPgsStaysCloseToConvergedNewton) {
   const HumanoidOptions ours;
   ASSERT_EQ(ours.solver, mjSOL_PGS);
+  ASSERT_TRUE(ours.elliptic_cones);
+  EXPECT_EQ(Humanoid::create(ours)->model()->opt.cone, mjCONE_ELLIPTIC);
+  HumanoidOptions pyr;
+  pyr.elliptic_cones = false;
+  EXPECT_EQ(Humanoid::create(pyr)->model()->opt.cone, mjCONE_PYRAMIDAL);
   const Deviation pgs = one_step_deviation(ours);
   HumanoidOptions newton1;  // a deliberately unconverged solver: shows the measure can tell solvers apart
   newton1.solver = mjSOL_NEWTON;
   newton1.solver_iterations = 1;
   const Deviation bad = one_step_deviation(newton1);
-  std::printf("one control step vs converged Newton: PGS 10 mean %.3f mm max %.3f mm; Newton 1 mean %.3f mm max "
+  std::printf("one control step vs converged Newton: PGS %d mean %.3f mm max %.3f mm; Newton 1 mean %.3f mm max "
               "%.3f mm (%d of %d steps with contacts, %d lying)\n",
-              pgs.mean_mm, pgs.max_mm, bad.mean_mm, bad.max_mm, pgs.steps_with_contacts, pgs.steps,
+              ours.solver_iterations, pgs.mean_mm, pgs.max_mm, bad.mean_mm, bad.max_mm, pgs.steps_with_contacts, pgs.steps,
               pgs.steps_lying);
   EXPECT_GE(pgs.steps_with_contacts, pgs.steps - 5);  // standing and lying states dominate
   EXPECT_GE(pgs.steps_lying, 5);                      // it fell and the lying contacts were compared too
   EXPECT_LT(pgs.mean_mm, 0.5);
   EXPECT_LT(pgs.max_mm, 5.0);
   EXPECT_GT(bad.mean_mm, 2 * pgs.mean_mm);
+}
+
+TEST(SimSolver, DISABLED_SolverSurvey) {
+  for (int ell = 0; ell < 2; ++ell)
+    for (int it : {4, 6, 8, 10, 15}) {  // the rest of the options as the default
+      HumanoidOptions o;
+      o.elliptic_cones = ell;
+      o.solver_iterations = it;
+      const Deviation d = one_step_deviation(o);
+      std::printf("%s PGS %d: mean %.3f mm max %.3f mm\n", ell ? "elliptic" : "pyramidal", it, d.mean_mm, d.max_mm);
+    }
 }
