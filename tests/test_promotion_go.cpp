@@ -98,6 +98,34 @@ TEST(GoDiffuser, KeyTokensConditionTheOutput) {
   EXPECT_LT(amax(abs(sub(u1, u2))).item(), 1e-6);
 }
 
+// Key-pose inpainting: the last DDPM step returns the x_0 estimate exactly, so with inpainting the sample carries
+// the key poses at the key frames bit for bit (pose dims only; the other dims stay the network's), without it not.
+TEST(GoDiffuser, InpaintingPassesThroughTheKeyPoses) {
+  Generator g(8);
+  const auto c = tiny();
+  GoDiffuser m(c, g);
+  m.eval();
+  const Tensor keys = rand_normal({2, 4, kPoseDim}, g), kf = key_frames_for(2, c);
+  Generator s1(5), s2(5);
+  const auto with = m.sample(keys, kf, s1, 1.0, true).to_vector<float>();
+  const auto without = m.sample(keys, kf, s2, 1.0, false).to_vector<float>();
+  const auto kv = keys.to_vector<float>();
+  const auto f = key_frame_indices((int)c.frames, (int)c.keys);
+  double off_with = 0, off_without = 0;
+  for (int b = 0; b < 2; ++b)
+    for (int k = 0; k < 4; ++k)
+      for (int d = 0; d < kPoseDim; ++d) {
+        const float want = kv[(size_t)(b * 4 + k) * kPoseDim + d];
+        const size_t at = ((size_t)b * c.frames + f[k]) * 257 + kPoseFeatureBegin + d;
+        off_with = std::max(off_with, (double)std::fabs(with[at] - want));
+        off_without = std::max(off_without, (double)std::fabs(without[at] - want));
+      }
+  EXPECT_EQ(off_with, 0.0);
+  EXPECT_GT(off_without, 0.1);
+  // Frames between the keys are the network's (not copies of a key pose).
+  EXPECT_NE(with[(size_t)(f[0] + 1) * 257 + kPoseFeatureBegin], kv[0]);
+}
+
 // 8 copies of the first 16 frames of the real walk fixture: one window (and its mirror) to overfit (the loader
 // visits each clip once per epoch; a batch of 8 needs 8 clips).
 std::vector<data::MotionClip> walk_clip() {

@@ -35,6 +35,7 @@ struct Args {
   std::string out, checkpoints = "models/checkpoints", manifest, split = "test";
   int clips = 32, threads = 0;
   uint64_t seed = 0;
+  bool inpaint = false;
 };
 
 // Baseline: the window with no root motion and the pose dims linearly interpolated between the key frames.
@@ -91,7 +92,7 @@ void run(const Args& a) {
     t2m::Tensor keys, key_frames;
     pm::batch_key_poses(t2m::Tensor::from_vector(x, {bn, T, D}), std::vector<int>(bn, T), K, &keys, &key_frames);
     t2m::Generator g(a.seed + 7919 * (b0 / B));
-    const auto out = go.model->sample(keys, key_frames, g).to_vector<float>();
+    const auto out = go.model->sample(keys, key_frames, g, 1.0, a.inpaint).to_vector<float>();
     for (int i = 0; i < bn; ++i) {
       std::vector<float> f(out.begin() + (size_t)i * T * D, out.begin() + (size_t)(i + 1) * T * D);
       t2m::data::denormalize_features(f, go.stats);
@@ -109,7 +110,7 @@ void run(const Args& a) {
                   {"data", "Bandai-Namco-Research-Motiondataset 1+2 (CC BY-NC 4.0), " + a.split + " split, " +
                                std::to_string(n) + " clips (every " + std::to_string(step) +
                                "th by name), centred windows"},
-                  {"checkpoint", gpath}, {"seed", a.seed}, {"wall_s", wall}, {"clips", used},
+                  {"checkpoint", gpath}, {"seed", a.seed}, {"inpaint", a.inpaint}, {"wall_s", wall}, {"clips", used},
                   {"go_diffuser", rg.to_json()}, {"interpolation_no_root_motion", rb.to_json()}};
   fs::create_directories(a.out);
   t2m::nn::write_file_atomic(a.out + "/eval.json", j.dump(1) + "\n");
@@ -132,6 +133,7 @@ void add_eval_promotion_go(CLI::App& app) {
   c->add_option("--split", a->split, "train, val or test")->capture_default_str();
   c->add_option("--clips", a->clips, "number of clips (windows)")->capture_default_str();
   c->add_option("--seed", a->seed, "sampling seed")->capture_default_str();
+  c->add_flag("--inpaint", a->inpaint, "replace the key frames' poses in every x_0 estimate (go_diffuser.h)");
   c->add_option("--threads", a->threads, "threads (0 = default)");
   c->callback([a] { run(*a); });
 }

@@ -1,6 +1,7 @@
 // go_diffuser.cpp — the go-diffuser network, its x_0 loss and the ancestral sampler with optional guidance.
 #include "models/promotion/go_diffuser.h"
 
+#include <algorithm>
 #include <string>
 
 #include "autograd/no_grad.h"
@@ -119,17 +120,31 @@ Tensor GoDiffuser::sample_key_keep(int64_t batch, Generator& gen) const {
   return rand_bernoulli({batch}, gen, 1 - cfg_.cond_drop);
 }
 
-Tensor GoDiffuser::sample(const Tensor& keys, const Tensor& key_frames, Generator& gen, double guidance) const {
+Tensor GoDiffuser::sample(const Tensor& keys, const Tensor& key_frames, Generator& gen, double guidance,
+                          bool inpaint) const {
   ag::NoGradGuard ng;
-  const int64_t B = keys.dim() == 3 ? keys.size(0) : 0;
-  const Tensor ones = Tensor::ones({B, cfg_.keys});
+  const int64_t B = keys.dim() == 3 ? keys.size(0) : 0, K = cfg_.keys, T = cfg_.frames;
+  const Tensor ones = Tensor::ones({B, K});
   const Variable kv(keys);
+  const std::vector<float> key_rows = inpaint ? keys.contiguous().to_vector<float>() : std::vector<float>();
+  const std::vector<int64_t> key_at = inpaint ? key_frames.contiguous().to_vector<int64_t>() : std::vector<int64_t>();
   auto predict = [&](const Tensor& x, int t) {
     const Tensor tt = Tensor::full({B}, t, DType::i64);
-    const Tensor xc = forward(Variable(x), tt, kv, key_frames, ones).data();
-    if (guidance == 1.0) return xc;
-    const Tensor xu = forward(Variable(x), tt, kv, key_frames, Tensor::zeros({B, cfg_.keys})).data();
-    return add(xu, mul(sub(xc, xu), guidance));  // x̂_u + w (x̂_c − x̂_u)
+    Tensor x0 = forward(Variable(x), tt, kv, key_frames, ones).data();
+    if (guidance != 1.0) {
+      const Tensor xu = forward(Variable(x), tt, kv, key_frames, Tensor::zeros({B, K})).data();
+      x0 = add(xu, mul(sub(x0, xu), guidance));  // x̂_u + w (x̂_c − x̂_u)
+    }
+    if (!inpaint) return x0;
+    x0 = x0.contiguous().clone();
+    float* p = x0.data<float>();
+    for (int64_t b = 0; b < B; ++b)
+      for (int64_t k = 0; k < K; ++k) {
+        const int64_t f = key_at[(size_t)(b * K + k)];
+        if (f < 0 || f >= T) throw Error("go_diffuser: key frame " + std::to_string(f) + " outside the window");
+        std::copy_n(key_rows.data() + (b * K + k) * kPoseDim, kPoseDim, p + (b * T + f) * data::kFeatureDim + kPoseFeatureBegin);
+      }
+    return x0;
   };
   return ddpm_sample(sched_, {B, cfg_.frames, data::kFeatureDim}, predict, gen);
 }

@@ -64,7 +64,11 @@ class GoDiffuser : public nn::Module {
 
   // DDPM ancestral sampling (100 steps) of B windows from key poses (B, K, 187) normalised, key_frames (B, K):
   // returns normalised features (B, T, 257). guidance w (1 = conditional only). Noise from gen.
-  Tensor sample(const Tensor& keys, const Tensor& key_frames, Generator& gen, double guidance = 1.0) const;
+  // inpaint (ours, not in the paper): at every step the x_0 estimate's pose dims [3, 190) at the key frames are
+  // replaced by the key poses (replacement inpainting), so the sample passes through its key poses exactly and the
+  // network fills in the rest (translation, velocities, in-between frames).
+  Tensor sample(const Tensor& keys, const Tensor& key_frames, Generator& gen, double guidance = 1.0,
+                bool inpaint = false) const;
 
   const GoDiffuserConfig& config() const { return cfg_; }
   const DiffusionSchedule& schedule() const { return sched_; }

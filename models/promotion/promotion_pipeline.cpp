@@ -56,7 +56,7 @@ PostureChoice plan_key_poses(const PoseTextBundle& enc, const std::vector<float>
 
 // PRO-Motion Sec 3.4: the go-diffuser turns the chosen key poses into the whole motion.
 std::vector<float> go_from_key_poses(const GoBundle& go, const std::vector<float>& key_poses, uint64_t seed,
-                                     double guidance) {
+                                     double guidance, bool inpaint) {
   const auto& cfg = go.model->config();
   const int64_t K = cfg.keys, T = cfg.frames;
   if ((int64_t)key_poses.size() != K * kPoseDim)
@@ -68,7 +68,7 @@ std::vector<float> go_from_key_poses(const GoBundle& go, const std::vector<float
   for (int f : key_frame_indices((int)T, (int)K)) kf.push_back(f);
   Generator g(seed);
   const Tensor out = go.model->sample(Tensor::from_vector(keys, {1, K, kPoseDim}), Tensor::from_vector(kf, {1, K}),
-                                      g, guidance);
+                                      g, guidance, inpaint);
   std::vector<float> f = out.to_vector<float>();
   data::denormalize_features(f, go.stats);
   return f;
@@ -97,7 +97,7 @@ PromotionResult generate_promotion(const PromotionModels& m, const std::string& 
   for (int w = 0; w < W; ++w) {  // Sec 3.4, one window per K key poses (shared boundary keys)
     const auto k0 = r.choice.poses.begin() + (ptrdiff_t)w * (K - 1) * kPoseDim;
     const std::vector<float> keys(k0, k0 + (ptrdiff_t)K * kPoseDim);
-    const std::vector<float> f = go_from_key_poses(m.go, keys, o.seed + 1 + w, o.go_guidance);
+    const std::vector<float> f = go_from_key_poses(m.go, keys, o.seed + 1 + w, o.go_guidance, o.go_inpaint);
     r.features.insert(r.features.end(), f.begin() + (w == 0 ? 0 : data::kFeatureDim), f.end());
   }
   nlohmann::json clauses = nlohmann::json::array();
@@ -108,7 +108,7 @@ PromotionResult generate_promotion(const PromotionModels& m, const std::string& 
             {"scripts", plan.scripts}, {"candidates_per_script", o.candidates}, {"viterbi_path", r.choice.path},
             {"viterbi_log_prob", r.choice.score}, {"posture_guidance", o.posture_guidance},
             {"posture_steps", o.posture_steps == 0 ? (int)m.posture.net->config().diffusion_steps : o.posture_steps},
-            {"go_guidance", o.go_guidance}, {"frames", (int64_t)r.features.size() / data::kFeatureDim},
+            {"go_guidance", o.go_guidance}, {"go_inpaint", o.go_inpaint}, {"frames", (int64_t)r.features.size() / data::kFeatureDim},
             {"go_windows", W}, {"key_frames", Kall}, {"fps", 30},
             {"seed", o.seed}};
   return r;

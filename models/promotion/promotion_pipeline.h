@@ -40,6 +40,7 @@ struct PromotionOptions {
   double posture_guidance = 2.0; // posture diffuser CFG w
   int posture_steps = 50;        // posture sampling steps: 0 = all T (DDPM), else strided DDIM (eta 1)
   double go_guidance = 1.0;      // go-diffuser CFG w (1 = conditional only)
+  bool go_inpaint = true;        // key-pose inpainting in the go-diffuser's sampler (go_diffuser.h; ours)
   int64_t frames = 0;            // requested length in frames: 0 = one go-diffuser window (see above)
   uint64_t seed = 0;
 };
@@ -55,7 +56,7 @@ PostureChoice plan_key_poses(const PoseTextBundle& enc, const std::vector<float>
 
 // The go stage alone: K raw key poses (K, 187) -> raw features [T, 257] (one DDPM sample).
 std::vector<float> go_from_key_poses(const GoBundle& go, const std::vector<float>& key_poses, uint64_t seed,
-                                     double guidance = 1.0);
+                                     double guidance = 1.0, bool inpaint = false);
 
 struct PromotionResult {
   std::vector<float> features;  // [T, 257] raw
