@@ -20,15 +20,14 @@
 namespace t2m::casim {
 
 nlohmann::json ArTrainConfig::to_json() const {
-  return {{"steps", steps},   {"batch", batch},   {"lr", lr},          {"weight_decay", weight_decay},
-          {"warmup", warmup}, {"corrupt", corrupt}, {"seed", seed}};
+  nlohmann::json j = common_json();
+  j["corrupt"] = corrupt;
+  return j;
 }
 
 void ArTrainConfig::validate() const {
-  if (steps < 1 || batch < 1 || !(lr > 0) || weight_decay < 0 || warmup < 0 || warmup >= steps ||
-      !(corrupt >= 0 && corrupt < 1) || save_every < 1 || stop_at < 0)
-    throw Error("ar train: bad config " + to_json().dump() +
-                " (steps, batch, save_every >= 1; lr > 0; 0 <= warmup < steps; 0 <= corrupt < 1)");
+  validate_common("ar train", to_json());
+  if (!(corrupt >= 0 && corrupt < 1)) throw Error("ar train: bad config " + to_json().dump() + " (0 <= corrupt < 1)");
 }
 
 namespace {

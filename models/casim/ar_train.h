@@ -27,19 +27,13 @@
 #include "models/casim/ar_gpt.h"
 #include "models/casim/ar_text.h"
 #include "models/casim/vq_train.h"
+#include "nn/train_config.h"
 
 namespace t2m::casim {
 
-struct ArTrainConfig {
-  int64_t steps = 1500;
-  int64_t batch = 32;
-  double lr = 3e-4;
-  double weight_decay = 0.01;
-  int64_t warmup = 100;
+struct ArTrainConfig : nn::TrainLoopConfig {
   double corrupt = 0.2;
-  uint64_t seed = 1;
-  int64_t save_every = 100;
-  int64_t stop_at = 0;
+  ArTrainConfig() { steps = 1500, batch = 32, lr = 3e-4, warmup = 100, save_every = 100; }
   nlohmann::json to_json() const;
   void validate() const;
 };

@@ -19,17 +19,15 @@
 namespace t2m::casim {
 
 nlohmann::json DiffusionTrainConfig::to_json() const {
-  return {{"steps", steps},   {"batch", batch},           {"window", window},   {"lr", lr},
-          {"weight_decay", weight_decay}, {"warmup", warmup}, {"mirror_prob", mirror_prob},
-          {"paraphrases", paraphrases}, {"seed", seed}};
+  nlohmann::json j = common_json();
+  j["window"] = window, j["mirror_prob"] = mirror_prob, j["paraphrases"] = paraphrases;
+  return j;
 }
 
 void DiffusionTrainConfig::validate() const {
-  if (steps < 1 || batch < 1 || window < 1 || !(lr > 0) || weight_decay < 0 || warmup < 0 || warmup >= steps ||
-      !(mirror_prob >= 0 && mirror_prob <= 1) || paraphrases < 1 || save_every < 1 || stop_at < 0)
-    throw Error("casim train: bad config " + to_json().dump() +
-                " (steps, batch, window, paraphrases, save_every >= 1, lr > 0, 0 <= warmup < steps, "
-                "mirror_prob in [0, 1])");
+  validate_common("casim train", to_json());
+  if (window < 1 || !(mirror_prob >= 0 && mirror_prob <= 1) || paraphrases < 1)
+    throw Error("casim train: bad config " + to_json().dump() + " (window, paraphrases >= 1, mirror_prob in [0, 1])");
 }
 
 DiffusionTrainResult train_diffusion(CasimDenoiser& model, const text::RetrievalBundle& tb,

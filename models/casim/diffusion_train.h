@@ -22,28 +22,20 @@
 #include "models/casim/diffusion_denoiser.h"
 #include "models/data/loader.h"
 #include "models/text/retrieval_model.h"
+#include "nn/train_config.h"
 
 namespace t2m::casim {
 
-struct DiffusionTrainConfig {
-  int64_t steps = 1500;
-  int64_t batch = 32;
+struct DiffusionTrainConfig : nn::TrainLoopConfig {
   int64_t window = 128;  // frames (4.3 s at 30 fps)
-  double lr = 3e-4;
-  double weight_decay = 0.0;
-  int64_t warmup = 100;
   double mirror_prob = 0.5;
   int paraphrases = 8;
-  uint64_t seed = 1;
-  int64_t save_every = 100;
-  int64_t stop_at = 0;
+  DiffusionTrainConfig() { steps = 1500, batch = 32, lr = 3e-4, weight_decay = 0.0, warmup = 100, save_every = 100; }
   nlohmann::json to_json() const;
   void validate() const;
 };
 
-struct DiffusionTrainPaths {
-  std::string state, log, svg;
-};
+using DiffusionTrainPaths = nn::TrainPaths;
 
 struct DiffusionTrainResult {
   int64_t steps = 0;       // total steps done

@@ -21,15 +21,15 @@ namespace t2m::casim {
 double process_cpu_seconds() { return (double)std::clock() / CLOCKS_PER_SEC; }
 
 nlohmann::json VqTrainConfig::to_json() const {
-  return {{"steps", steps}, {"batch", batch},     {"window", window}, {"lr", lr},
-          {"weight_decay", weight_decay}, {"warmup", warmup}, {"seed", seed}};
+  nlohmann::json j = common_json();
+  j["window"] = window;
+  return j;
 }
 
 void VqTrainConfig::validate() const {
-  if (steps < 1 || batch < 1 || window < 4 || window % 4 != 0 || !(lr > 0) || weight_decay < 0 || warmup < 0 ||
-      warmup >= steps || save_every < 1 || stop_at < 0)
-    throw Error("vq train: bad config " + to_json().dump() +
-                " (steps, batch, save_every >= 1; window a positive multiple of 4; lr > 0; 0 <= warmup < steps)");
+  validate_common("vq train", to_json());
+  if (window < 4 || window % 4 != 0)
+    throw Error("vq train: bad config " + to_json().dump() + " (window a positive multiple of 4)");
 }
 
 TrainResult train_vq(VqVae& model, const std::vector<data::MotionClip>& train, const data::FeatureStats& stats,

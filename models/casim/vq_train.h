@@ -26,26 +26,18 @@
 #include "models/casim/vq_vae.h"
 #include "models/data/features_norm.h"
 #include "models/data/loader.h"
+#include "nn/train_config.h"
 
 namespace t2m::casim {
 
-struct VqTrainConfig {
-  int64_t steps = 2000;
-  int64_t batch = 32;
+struct VqTrainConfig : nn::TrainLoopConfig {
   int64_t window = 64;
-  double lr = 5e-4;
-  double weight_decay = 0.0;
-  int64_t warmup = 100;
-  uint64_t seed = 1;
-  int64_t save_every = 200;
-  int64_t stop_at = 0;
+  VqTrainConfig() { steps = 2000, batch = 32, lr = 5e-4, weight_decay = 0.0, warmup = 100, save_every = 200; }
   nlohmann::json to_json() const;
   void validate() const;
 };
 
-struct TrainPaths {
-  std::string state, log, svg;
-};
+using TrainPaths = nn::TrainPaths;
 
 struct TrainResult {
   int64_t steps = 0;

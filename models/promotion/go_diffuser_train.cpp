@@ -16,18 +16,6 @@
 
 namespace t2m::promotion {
 
-nlohmann::json GoTrainConfig::to_json() const {
-  return {{"steps", steps}, {"batch", batch}, {"lr", lr}, {"weight_decay", weight_decay}, {"warmup", warmup},
-          {"seed", seed}};
-}
-
-void GoTrainConfig::validate() const {
-  if (steps < 1 || batch < 1 || !(lr > 0) || weight_decay < 0 || warmup < 0 || warmup >= steps || save_every < 1 ||
-      stop_at < 0)
-    throw Error("go train: bad config " + to_json().dump() + " (steps, batch, save_every >= 1, lr > 0, "
-                "0 <= warmup < steps)");
-}
-
 void batch_key_poses(const Tensor& x, const std::vector<int>& lengths, int64_t K, Tensor* keys, Tensor* key_frames) {
   const int64_t B = x.size(0), T = x.size(1), D = x.size(2);
   if ((int64_t)lengths.size() != B || D != data::kFeatureDim)

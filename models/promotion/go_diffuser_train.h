@@ -17,25 +17,17 @@
 
 #include "models/data/loader.h"
 #include "models/promotion/go_diffuser.h"
+#include "nn/train_config.h"
 
 namespace t2m::promotion {
 
-struct GoTrainConfig {
-  int64_t steps = 1400;
-  int64_t batch = 16;
-  double lr = 3e-4;
-  double weight_decay = 0.01;
-  int64_t warmup = 50;
-  uint64_t seed = 1;
-  int64_t save_every = 100;
-  int64_t stop_at = 0;
-  nlohmann::json to_json() const;
-  void validate() const;
+struct GoTrainConfig : nn::TrainLoopConfig {
+  GoTrainConfig() { steps = 1400, batch = 16, lr = 3e-4, warmup = 50, save_every = 100; }
+  nlohmann::json to_json() const { return common_json(); }
+  void validate() const { validate_common("go train", to_json()); }
 };
 
-struct GoTrainPaths {
-  std::string state, log, svg;
-};
+using GoTrainPaths = nn::TrainPaths;
 
 struct GoTrainResult {
   int64_t steps = 0;

@@ -32,18 +32,6 @@ Tensor batch_poses(const PostureScriptSet& set, const std::vector<int64_t>& idx,
 
 }  // namespace
 
-nlohmann::json EncodersTrainConfig::to_json() const {
-  return {{"steps", steps}, {"batch", batch}, {"lr", lr}, {"weight_decay", weight_decay}, {"warmup", warmup},
-          {"seed", seed}};
-}
-
-void EncodersTrainConfig::validate() const {
-  if (steps < 1 || batch < 2 || !(lr > 0) || weight_decay < 0 || warmup < 0 || warmup >= steps || save_every < 1 ||
-      stop_at < 0)
-    throw Error("encoders train: bad config " + to_json().dump() + " (steps, save_every >= 1, batch >= 2, lr > 0, "
-                "0 <= warmup < steps)");
-}
-
 EncodersTrainResult train_pose_text_encoders(PoseTextEncoders& m, const text::Tokenizer& tok,
                                              const PostureScriptSet& set, const PoseStats& stats,
                                              const EncodersTrainConfig& cfg, const EncodersTrainPaths& paths,

@@ -17,25 +17,17 @@
 
 #include "models/promotion/pose_text_encoders.h"
 #include "models/promotion/posture_script_set.h"
+#include "nn/train_config.h"
 
 namespace t2m::promotion {
 
-struct EncodersTrainConfig {
-  int64_t steps = 600;
-  int64_t batch = 64;
-  double lr = 1e-3;
-  double weight_decay = 0.01;
-  int64_t warmup = 50;
-  uint64_t seed = 1;
-  int64_t save_every = 100;
-  int64_t stop_at = 0;
-  nlohmann::json to_json() const;
-  void validate() const;
+struct EncodersTrainConfig : nn::TrainLoopConfig {
+  EncodersTrainConfig() { steps = 600, batch = 64, lr = 1e-3, warmup = 50, save_every = 100; }
+  nlohmann::json to_json() const { return common_json(); }
+  void validate() const { validate_common("encoders train", to_json(), 2); }
 };
 
-struct EncodersTrainPaths {
-  std::string state, log, svg;
-};
+using EncodersTrainPaths = nn::TrainPaths;
 
 struct EncodersTrainResult {
   int64_t steps = 0;

@@ -20,18 +20,6 @@
 
 namespace t2m::promotion {
 
-nlohmann::json PostureTrainConfig::to_json() const {
-  return {{"steps", steps}, {"batch", batch}, {"lr", lr}, {"weight_decay", weight_decay}, {"warmup", warmup},
-          {"seed", seed}};
-}
-
-void PostureTrainConfig::validate() const {
-  if (steps < 1 || batch < 1 || !(lr > 0) || weight_decay < 0 || warmup < 0 || warmup >= steps || save_every < 1 ||
-      stop_at < 0)
-    throw Error("posture train: bad config " + to_json().dump() +
-                " (steps, batch, save_every >= 1, lr > 0, 0 <= warmup < steps)");
-}
-
 PostureTrainData make_posture_train_data(const PostureScriptSet& s, const PoseStats& stats,
                                          const text::Tokenizer& tok, int64_t max_tokens) {
   if (s.size() == 0) throw Error("posture train: the posture-script set is empty");

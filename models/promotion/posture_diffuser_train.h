@@ -21,20 +21,14 @@
 #include "models/promotion/posture_diffuser.h"
 #include "models/promotion/posture_script_set.h"
 #include "models/text/tokenizer.h"
+#include "nn/train_config.h"
 
 namespace t2m::promotion {
 
-struct PostureTrainConfig {
-  int64_t steps = 3000;
-  int64_t batch = 128;
-  double lr = 5e-4;
-  double weight_decay = 0.01;
-  int64_t warmup = 100;
-  uint64_t seed = 1;
-  int64_t save_every = 250;
-  int64_t stop_at = 0;
-  nlohmann::json to_json() const;
-  void validate() const;
+struct PostureTrainConfig : nn::TrainLoopConfig {
+  PostureTrainConfig() { steps = 3000, batch = 128, lr = 5e-4, warmup = 100, save_every = 250; }
+  nlohmann::json to_json() const { return common_json(); }
+  void validate() const { validate_common("posture train", to_json()); }
 };
 
 // Normalised key poses and tokenised scripts of a set.
@@ -47,9 +41,7 @@ struct PostureTrainData {
 PostureTrainData make_posture_train_data(const PostureScriptSet& s, const PoseStats& stats,
                                          const text::Tokenizer& tok, int64_t max_tokens);
 
-struct PostureTrainPaths {
-  std::string state, log, svg;
-};
+using PostureTrainPaths = nn::TrainPaths;
 
 struct PostureTrainResult {
   int64_t steps = 0;

@@ -18,17 +18,13 @@
 namespace t2m::text2bfm {
 
 nlohmann::json GenTrainConfig::to_json() const {
-  nlohmann::json j = {{"steps", steps}, {"batch", batch}, {"lr", lr},  {"weight_decay", weight_decay},
-                      {"warmup", warmup}, {"seed", seed}};
+  nlohmann::json j = common_json();
   if (objective != "flow") j["objective"] = objective, j["schedule"] = schedule;
   return j;
 }
 
 void GenTrainConfig::validate() const {
-  if (steps < 1 || batch < 1 || !(lr > 0) || weight_decay < 0 || warmup < 0 || warmup >= steps ||
-      save_every < 1 || stop_at < 0)
-    throw Error("gen train: bad config " + to_json().dump() + " (steps, batch, save_every >= 1, lr > 0, "
-                "0 <= warmup < steps)");
+  validate_common("gen train", to_json());
   if (objective != "flow" && objective != "diffusion")
     throw Error("gen train: objective must be flow or diffusion, got '" + objective + "'");
   nn::noise_schedule_from_name(schedule);

@@ -20,27 +20,19 @@
 
 #include "models/text2bfm/generator.h"
 #include "models/text2bfm/program_dataset.h"
+#include "nn/train_config.h"
 
 namespace t2m::text2bfm {
 
-struct GenTrainConfig {
-  int64_t steps = 3000;
-  int64_t batch = 32;
-  double lr = 3e-4;
-  double weight_decay = 0.01;
-  int64_t warmup = 100;
-  uint64_t seed = 1;
-  int64_t save_every = 250;
-  int64_t stop_at = 0;
+struct GenTrainConfig : nn::TrainLoopConfig {
   std::string objective = "flow";   // "flow" (Eq 15) | "diffusion" (v-prediction)
   std::string schedule = "cosine";  // diffusion only
+  GenTrainConfig() { steps = 3000, batch = 32, lr = 3e-4, warmup = 100, save_every = 250; }
   nlohmann::json to_json() const;   // objective/schedule only when not flow (flow states resume as before)
   void validate() const;
 };
 
-struct GenTrainPaths {
-  std::string state, log, svg;
-};
+using GenTrainPaths = nn::TrainPaths;
 
 struct GenTrainResult {
   int64_t steps = 0;         // total steps done
