@@ -17,4 +17,14 @@ void TrainLoopConfig::validate_common(const std::string& what, const nlohmann::j
                 std::to_string(min_batch) + ", lr > 0, weight_decay >= 0, 0 <= warmup < steps, stop_at >= 0)");
 }
 
+AdamWOptions TrainLoopConfig::adamw() const {
+  AdamWOptions o;
+  o.lr = lr;
+  o.weight_decay = weight_decay;
+  o.no_decay = no_decay_1d;
+  return o;
+}
+
+LrSchedule TrainLoopConfig::lr_schedule() const { return LrSchedule::warmup_cosine(lr, warmup, steps, lr / 10); }
+
 }  // namespace t2m::nn

@@ -5,10 +5,16 @@
 // stop_at are not in it, so a later chunk may change them and still resume.
 // validate_common(): throws t2m::Error "WHAT: bad config SHOWN (...)" unless steps >= 1, batch >= min_batch,
 // save_every >= 1, lr > 0, weight_decay >= 0, 0 <= warmup < steps and stop_at >= 0.
+// The trainers' common recipe: adamw() = AdamW(lr, weight_decay) with no decay on 1-D parameters (biases, norm
+// gains); lr_schedule() = linear warm-up over `warmup` steps, then cosine to lr / 10 at `steps`; end_step() = the
+// step this invocation stops at (stop_at when set, else steps).
 #pragma once
 #include <cstdint>
 #include <nlohmann/json.hpp>
 #include <string>
+
+#include "nn/lr_schedule.h"
+#include "nn/optim_adamw.h"
 
 namespace t2m::nn {
 
@@ -24,6 +30,9 @@ struct TrainLoopConfig {
 
   nlohmann::json common_json() const;
   void validate_common(const std::string& what, const nlohmann::json& shown, int64_t min_batch = 1) const;
+  AdamWOptions adamw() const;
+  LrSchedule lr_schedule() const;
+  int64_t end_step() const { return stop_at > 0 && stop_at < steps ? stop_at : steps; }
 };
 
 // Where a run writes: the resumable state, the JSONL log and the loss plot (SVG).

@@ -50,6 +50,24 @@ TEST(TrainConfig, ValidateRejectsEachBadField) {
   expect_bad([](TrainLoopConfig& c) { c.stop_at = -1; });
 }
 
+TEST(TrainConfig, SharedRecipe) {
+  TrainLoopConfig c;
+  c.steps = 100, c.warmup = 10, c.lr = 1e-3, c.weight_decay = 0.05;
+  const auto o = c.adamw();
+  EXPECT_EQ(o.lr, 1e-3);
+  EXPECT_EQ(o.weight_decay, 0.05);
+  ASSERT_TRUE((bool)o.no_decay);
+  const auto s = c.lr_schedule();
+  EXPECT_NEAR(s.at(0), 1e-3 / 10, 1e-12);    // warm-up: lr (step + 1) / warmup
+  EXPECT_NEAR(s.at(10), 1e-3, 1e-12);        // cosine starts at lr
+  EXPECT_NEAR(s.at(100), 1e-4, 1e-12);       // and ends at lr / 10
+  EXPECT_EQ(c.end_step(), 100);
+  c.stop_at = 40;
+  EXPECT_EQ(c.end_step(), 40);
+  c.stop_at = 400;
+  EXPECT_EQ(c.end_step(), 100);
+}
+
 TEST(TrainConfig, DerivedConfigsKeepTheirDefaultsAndChecks) {
   const t2m::promotion::GoTrainConfig go;
   EXPECT_EQ(go.steps, 1400);

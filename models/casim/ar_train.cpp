@@ -86,18 +86,15 @@ TrainResult train_ar(ArGpt& model, const CodeSet& set, const ArTextEncoder& text
   const double c0 = process_cpu_seconds();
   model.train();
   const nn::NamedParams params = model.named_parameters();
-  nn::AdamWOptions ao;
-  ao.lr = cfg.lr;
-  ao.weight_decay = cfg.weight_decay;
-  ao.no_decay = nn::no_decay_1d;
+  const nn::AdamWOptions ao = cfg.adamw();
   nn::AdamW opt(params, ao);
   Generator data_rng(cfg.seed * 7 + 1), corrupt_rng(cfg.seed * 7 + 2);
   nn::TrainState ts(params, {{"train", cfg.to_json()}, {"model", model.config().to_json()},
                              {"items", set.items.size()}, {"vq_crc", set.vq_crc}});
   ts.optimizer(opt).generator("data", data_rng).generator("corrupt", corrupt_rng);
   if (resume && std::filesystem::exists(paths.state)) ts.load(paths.state);
-  const int64_t end = cfg.stop_at > 0 ? std::min(cfg.stop_at, cfg.steps) : cfg.steps;
-  const auto sched = nn::LrSchedule::warmup_cosine(cfg.lr, cfg.warmup, cfg.steps, cfg.lr / 10);
+  const int64_t end = cfg.end_step();
+  const auto sched = cfg.lr_schedule();
   nn::TrainLog log(paths.log, ts.step);
   nn::ProgressOptions po;
   po.start = ts.step;

@@ -50,8 +50,7 @@ DiffusionTrainResult train_diffusion(CasimDenoiser& model, const text::Retrieval
 
   model.train();
   const nn::NamedParams params = model.named_parameters();
-  nn::AdamWOptions ao;
-  ao.lr = cfg.lr, ao.weight_decay = cfg.weight_decay, ao.no_decay = nn::no_decay_1d;
+  const nn::AdamWOptions ao = cfg.adamw();
   nn::AdamW opt(params, ao);
   Generator diff_rng(cfg.seed * 3 + 21), drop_rng(cfg.seed * 3 + 22);
   const nlohmann::json config = {{"model", model.config().to_json()}, {"train", cfg.to_json()},
@@ -59,8 +58,8 @@ DiffusionTrainResult train_diffusion(CasimDenoiser& model, const text::Retrieval
   nn::TrainState ts(params, config);
   ts.optimizer(opt).generator("diffusion", diff_rng).generator("drop", drop_rng);
   if (resume && std::filesystem::exists(paths.state)) ts.load(paths.state);
-  const int64_t end = cfg.stop_at > 0 ? std::min(cfg.stop_at, cfg.steps) : cfg.steps;
-  const auto sched = nn::LrSchedule::warmup_cosine(cfg.lr, cfg.warmup, cfg.steps, cfg.lr / 10);
+  const int64_t end = cfg.end_step();
+  const auto sched = cfg.lr_schedule();
   nn::TrainLog log(paths.log, ts.step);
 
   loader.start_epoch(ts.epoch);

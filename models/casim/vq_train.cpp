@@ -40,10 +40,7 @@ TrainResult train_vq(VqVae& model, const std::vector<data::MotionClip>& train, c
   const double c0 = process_cpu_seconds();
   model.train();
   const nn::NamedParams trainable = model.trainable_parameters();
-  nn::AdamWOptions ao;
-  ao.lr = cfg.lr;
-  ao.weight_decay = cfg.weight_decay;
-  ao.no_decay = nn::no_decay_1d;
+  const nn::AdamWOptions ao = cfg.adamw();
   nn::AdamW opt(trainable, ao);
   Generator reset_rng(cfg.seed * 5 + 3);
   nn::TrainState ts(model.named_parameters(),
@@ -59,8 +56,8 @@ TrainResult train_vq(VqVae& model, const std::vector<data::MotionClip>& train, c
   data::Batch batch;
   for (int64_t i = 0; i < ts.cursor; ++i) loader.next(batch);  // skip what the resumed run already used
 
-  const int64_t end = cfg.stop_at > 0 ? std::min(cfg.stop_at, cfg.steps) : cfg.steps;
-  const auto sched = nn::LrSchedule::warmup_cosine(cfg.lr, cfg.warmup, cfg.steps, cfg.lr / 10);
+  const int64_t end = cfg.end_step();
+  const auto sched = cfg.lr_schedule();
   nn::TrainLog log(paths.log, ts.step);
   nn::ProgressOptions po;
   po.start = ts.step;

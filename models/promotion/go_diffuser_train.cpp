@@ -45,10 +45,7 @@ GoTrainResult train_go_diffuser(GoDiffuser& m, const std::vector<data::MotionCli
   const auto t0 = std::chrono::steady_clock::now();
   m.train();
   const nn::NamedParams params = m.named_parameters();
-  nn::AdamWOptions ao;
-  ao.lr = cfg.lr;
-  ao.weight_decay = cfg.weight_decay;
-  ao.no_decay = nn::no_decay_1d;
+  const nn::AdamWOptions ao = cfg.adamw();
   nn::AdamW opt(params, ao);
   Generator noise_rng(cfg.seed * 3 + 21), drop_rng(cfg.seed * 3 + 22);
   data::LoaderConfig lc;
@@ -65,8 +62,8 @@ GoTrainResult train_go_diffuser(GoDiffuser& m, const std::vector<data::MotionCli
   loader.start_epoch(ts.epoch);
   data::Batch b;
   for (int64_t i = 0; i < ts.cursor; ++i) loader.next(b);  // replay the epoch up to the saved position
-  const int64_t end = cfg.stop_at > 0 ? std::min(cfg.stop_at, cfg.steps) : cfg.steps;
-  const auto sched = nn::LrSchedule::warmup_cosine(cfg.lr, cfg.warmup, cfg.steps, cfg.lr / 10);
+  const int64_t end = cfg.end_step();
+  const auto sched = cfg.lr_schedule();
   nn::TrainLog log(paths.log, ts.step);
   nn::ProgressOptions po;
   po.start = ts.step;

@@ -36,10 +36,7 @@ GenTrainResult train_generator(FlowGenerator& gen, const ProgramDataset& data, c
   const auto t0 = std::chrono::steady_clock::now();
   gen.train();
   const nn::NamedParams params = gen.named_parameters();
-  nn::AdamWOptions ao;
-  ao.lr = cfg.lr;
-  ao.weight_decay = cfg.weight_decay;
-  ao.no_decay = nn::no_decay_1d;
+  const nn::AdamWOptions ao = cfg.adamw();
   nn::AdamW opt(params, ao);
   Generator data_rng(cfg.seed * 3 + 11), flow_rng(cfg.seed * 3 + 12), drop_rng(cfg.seed * 3 + 13);
   const nlohmann::json config = {{"train", cfg.to_json()}, {"window", data.window},
@@ -47,8 +44,8 @@ GenTrainResult train_generator(FlowGenerator& gen, const ProgramDataset& data, c
   nn::TrainState ts(params, config);
   ts.optimizer(opt).generator("data", data_rng).generator("flow", flow_rng).generator("drop", drop_rng);
   if (resume && std::filesystem::exists(paths.state)) ts.load(paths.state);
-  const int64_t end = cfg.stop_at > 0 ? std::min(cfg.stop_at, cfg.steps) : cfg.steps;
-  const auto sched = nn::LrSchedule::warmup_cosine(cfg.lr, cfg.warmup, cfg.steps, cfg.lr / 10);
+  const int64_t end = cfg.end_step();
+  const auto sched = cfg.lr_schedule();
   nn::TrainLog log(paths.log, ts.step);
   nn::ProgressOptions po;
   po.start = ts.step;
