@@ -29,6 +29,7 @@
 #include "nn/progress.h"
 #include "tensor/parallel.h"
 #include "tools/command.h"
+#include "tools/score_motion_dir.h"
 #include "tools/kinematic_models.h"
 #include "tools/text_data.h"
 
@@ -151,28 +152,16 @@ void run(const Args& a) {
                            {"stats", stats}};
   t2m::eval::write_motion_dir(a.out, entries, {{"provenance", provenance}});
 
-  const auto md = t2m::eval::load_motion_dir(a.out);
-  const auto ev = t2m::eval::load_evaluator(a.evaluator);
-  const t2m::eval::MotionSet set = t2m::eval::motion_set_of(md);
-  std::vector<const std::vector<float>*> ref;
-  for (const auto& c : clips) ref.push_back(&c.features);
-  const auto rep = t2m::eval::evaluate_motions(ev, set, t2m::text::embed_motions(ev, ref), a.protocol);
-  json j = rep.to_json();
-  j["motions"] = what;
-  j["count"] = set.motions.size();
-  j["multimodality_prompts"] = set.groups.size();
-  j["fid_reference"] = std::string("real ") + (a.compose > 0 ? "composed " : "") + "motions of the " + a.split +
-                       " split (" + std::to_string(clips.size()) + " clips)";
-  j["evaluator"] = a.evaluator;
-  j["data"] = provenance["data"];
-  j["stats"] = stats;
-  j["redrawn_per_run"] = "R-precision batches, shuffled control, Diversity and MultiModality pairs (the motions are "
-                         "generated once)";
-  t2m::nn::write_file_atomic(a.out + "/eval.json", j.dump(1) + "\n");
-  std::printf("%s: %zu motions, %d runs; generated in %.1f s wall, %.1f s CPU\n", what.c_str(), set.motions.size(),
-              a.protocol.runs, wall, cpu);
-  std::fputs(t2m::eval::report_lines(rep).c_str(), stdout);
-  std::printf("%s\n", t2m::eval::report_markdown_row(name + (a.compose > 0 ? std::string(" (compose)") : std::string()), rep).c_str());
+  t2m::cli::ScoreRequest sr;
+  sr.dir = a.out, sr.evaluator = a.evaluator, sr.what = what, sr.reference = &clips, sr.protocol = a.protocol;
+  sr.fid_reference = std::string("real ") + (a.compose > 0 ? "composed " : "") + "motions of the " + a.split +
+                     " split (" + std::to_string(clips.size()) + " clips)";
+  sr.label = name + (a.compose > 0 ? std::string(" (compose)") : std::string());
+  char summary[96];
+  std::snprintf(summary, sizeof summary, "generated in %.1f s wall, %.1f s CPU", wall, cpu);
+  sr.summary = summary;
+  sr.fields = {{"data", provenance["data"]}, {"stats", stats}};
+  t2m::cli::score_motion_dir(sr);
 }
 
 void add_eval_casim(CLI::App& app) {

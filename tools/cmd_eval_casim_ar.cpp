@@ -30,6 +30,7 @@
 #include "nn/progress.h"
 #include "tensor/parallel.h"
 #include "tools/command.h"
+#include "tools/score_motion_dir.h"
 #include "tools/text_data.h"
 
 namespace {
@@ -165,27 +166,15 @@ void run(Args a) {
     provenance = {{"what", what}, {"data", "Bandai-Namco-Research-Motiondataset 1+2 (CC BY-NC 4.0), " + a.split +
                                   " split, captions from its labels (seed 7, index 0)"}};
 
-  const auto md = t2m::eval::load_motion_dir(a.out);
-  const auto ev = t2m::eval::load_evaluator(a.evaluator);
-  const t2m::eval::MotionSet set = t2m::eval::motion_set_of(md);
-  std::vector<const std::vector<float>*> ref;
-  for (const auto& c : clips) ref.push_back(&c.features);
-  const auto rep = t2m::eval::evaluate_motions(ev, set, t2m::text::embed_motions(ev, ref), a.protocol);
-  json j = rep.to_json();
-  j["motions"] = what;
-  j["count"] = set.motions.size();
-  j["multimodality_prompts"] = set.groups.size();
-  j["fid_reference"] = std::string("real ") + (a.compose > 0 ? "composed " : "") + "motions of the " + a.split +
-                       " split (" + std::to_string(clips.size()) + " clips)";
-  j["evaluator"] = a.evaluator;
-  j["data"] = provenance["data"];
-  j["stats"] = stats;
-  t2m::nn::write_file_atomic(a.out + "/eval.json", j.dump(1) + "\n");
-  std::printf("%s: %zu motions, %d runs; %s\n", what.c_str(), set.motions.size(), a.protocol.runs,
-              stats.dump().c_str());
-  std::fputs(t2m::eval::report_lines(rep).c_str(), stdout);
+  t2m::cli::ScoreRequest sr;
+  sr.dir = a.out, sr.evaluator = a.evaluator, sr.what = what, sr.reference = &clips, sr.protocol = a.protocol;
+  sr.fid_reference = std::string("real ") + (a.compose > 0 ? "composed " : "") + "motions of the " + a.split +
+                     " split (" + std::to_string(clips.size()) + " clips)";
   const std::string label = a.reconstruct ? std::string("casim-vq reconstruction") : "casim-ar-" + a.cond;
-  std::printf("%s\n", t2m::eval::report_markdown_row(label + (a.compose > 0 ? std::string(" (compose)") : std::string()), rep).c_str());
+  sr.label = label + (a.compose > 0 ? std::string(" (compose)") : std::string());
+  sr.summary = stats.dump();
+  sr.fields = {{"data", provenance["data"]}, {"stats", stats}};
+  t2m::cli::score_motion_dir(sr);
 }
 
 void add_eval_casim_ar(CLI::App& app) {

@@ -30,6 +30,7 @@
 #include "nn/progress.h"
 #include "tensor/parallel.h"
 #include "tools/command.h"
+#include "tools/score_motion_dir.h"
 #include "tools/text_data.h"
 
 namespace {
@@ -148,31 +149,13 @@ void run(Args a) {
   t2m::eval::write_motion_dir(a.out, entries, {{"provenance", provenance}});
 
   // Score with the evaluator exactly as `t2m eval motions OUT` does (FID reference: the split's real clips).
-  const auto md = t2m::eval::load_motion_dir(a.out);
-  const auto ev = t2m::eval::load_evaluator(a.evaluator);
-  const t2m::eval::MotionSet set = t2m::eval::motion_set_of(md);
-  std::vector<const std::vector<float>*> ref;
-  for (const auto& c : clips) ref.push_back(&c.features);
-  const t2m::Tensor reference = t2m::text::embed_motions(ev, ref);
-  const auto rep = t2m::eval::evaluate_motions(ev, set, reference, a.protocol);
-  json j = rep.to_json();
-  j["motions"] = what;
-  j["count"] = set.motions.size();
-  j["multimodality_prompts"] = set.groups.size();
-  j["fid_reference"] = "real motions of the " + a.split + " split (" + std::to_string(clips.size()) + " clips)";
-  j["evaluator"] = a.evaluator;
-  j["data"] = provenance["data"];
-  j["stats"] = stats;
-  j["produce_s"] = produce_s;
-  j["resampled_per_run"] = "R-precision batches, shuffled control, Diversity and MultiModality pairs (the motions "
-                           "are generated once)";
-  t2m::nn::write_file_atomic(a.out + "/eval.json", j.dump(1) + "\n");
-
-  std::printf("%s: %zu motions, %d runs (seed %llu); Bandai-Namco, our %s split\n", what.c_str(),
-              set.motions.size(), a.protocol.runs, (unsigned long long)a.protocol.seed, a.split.c_str());
-  std::fputs(t2m::eval::report_lines(rep).c_str(), stdout);
-  const std::string label = a.label.empty() ? (a.tracking ? "BFM tracking (real Eq 2 latents)" : "Text2BFM") : a.label;
-  std::printf("%s\n", t2m::eval::report_markdown_row(label, rep).c_str());
+  t2m::cli::ScoreRequest sr;
+  sr.dir = a.out, sr.evaluator = a.evaluator, sr.what = what, sr.reference = &clips, sr.protocol = a.protocol;
+  sr.fid_reference = "real motions of the " + a.split + " split (" + std::to_string(clips.size()) + " clips)";
+  sr.label = a.label.empty() ? (a.tracking ? "BFM tracking (real Eq 2 latents)" : "Text2BFM") : a.label;
+  sr.summary = "Bandai-Namco, our " + a.split + " split";
+  sr.fields = {{"data", provenance["data"]}, {"stats", stats}, {"produce_s", produce_s}};
+  t2m::cli::score_motion_dir(sr);
   std::printf("motions: %s/motions.json  report: %s/eval.json\n", a.out.c_str(), a.out.c_str());
 }
 
