@@ -37,7 +37,7 @@ PromotionModels load_promotion_models(const std::string& checkpoints_dir);
 
 struct PromotionOptions {
   int candidates = 8;            // N poses sampled per script
-  double posture_guidance = 2.0; // posture diffuser CFG w
+  double posture_guidance = 1.25; // posture diffuser CFG w: best posecode agreement on the VAL split (PROMOTION.md §4)
   int posture_steps = 50;        // posture sampling steps: 0 = all T (DDPM), else strided DDIM (eta 1)
   double go_guidance = 1.0;      // go-diffuser CFG w (1 = conditional only)
   bool go_inpaint = true;        // key-pose inpainting in the go-diffuser's sampler (go_diffuser.h; ours)
