@@ -69,14 +69,7 @@ void run_eval(const EvalArgs& a) {
     what = "real motions of the " + a.split + " split (Bandai-Namco, CC BY-NC 4.0) against their own captions";
   } else {
     md = t2m::eval::load_motion_dir(a.dir);
-    for (int64_t i : md.main_set()) {
-      set.captions.push_back(md.entries[i].caption);
-      set.motions.push_back(&md.entries[i].features);
-    }
-    for (const auto& g : md.prompt_groups()) {
-      set.groups.emplace_back();
-      for (int64_t i : g) set.groups.back().push_back(&md.entries[i].features);
-    }
+    set = t2m::eval::motion_set_of(md);
     what = "motions of " + a.dir;
   }
 
