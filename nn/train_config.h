@@ -40,4 +40,11 @@ struct TrainPaths {
   std::string state, log, svg;
 };
 
+// What one invocation of a trainer reports.
+struct TrainRunResult {
+  int64_t steps = 0;       // total steps done (this and earlier chunks)
+  double final_loss = 0;   // the progress bar's smoothed loss
+  double seconds = 0;      // wall time of this invocation
+};
+
 }  // namespace t2m::nn

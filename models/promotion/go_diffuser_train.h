@@ -29,11 +29,7 @@ struct GoTrainConfig : nn::TrainLoopConfig {
 
 using GoTrainPaths = nn::TrainPaths;
 
-struct GoTrainResult {
-  int64_t steps = 0;
-  double final_loss = 0;  // smoothed
-  double seconds = 0;     // this run
-};
+using GoTrainResult = nn::TrainRunResult;
 
 // The key poses (B, K, 187) and key frames (B, K) of a normalised batch x (B, T, 257) with real lengths.
 void batch_key_poses(const Tensor& x, const std::vector<int>& lengths, int64_t K, Tensor* keys, Tensor* key_frames);

@@ -29,11 +29,7 @@ struct EncodersTrainConfig : nn::TrainLoopConfig {
 
 using EncodersTrainPaths = nn::TrainPaths;
 
-struct EncodersTrainResult {
-  int64_t steps = 0;
-  double final_loss = 0;  // smoothed InfoNCE
-  double seconds = 0;
-};
+using EncodersTrainResult = nn::TrainRunResult;
 
 EncodersTrainResult train_pose_text_encoders(PoseTextEncoders& m, const text::Tokenizer& tok,
                                              const PostureScriptSet& set, const PoseStats& stats,

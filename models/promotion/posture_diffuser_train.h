@@ -43,11 +43,7 @@ PostureTrainData make_posture_train_data(const PostureScriptSet& s, const PoseSt
 
 using PostureTrainPaths = nn::TrainPaths;
 
-struct PostureTrainResult {
-  int64_t steps = 0;
-  double final_loss = 0;  // smoothed
-  double seconds = 0;     // this call
-};
+using PostureTrainResult = nn::TrainRunResult;
 
 PostureTrainResult train_posture_diffuser(PostureDiffuser& net, const PostureTrainData& data,
                                           const PostureTrainConfig& cfg, const PostureTrainPaths& paths, bool resume);

@@ -34,11 +34,7 @@ struct GenTrainConfig : nn::TrainLoopConfig {
 
 using GenTrainPaths = nn::TrainPaths;
 
-struct GenTrainResult {
-  int64_t steps = 0;         // total steps done
-  double final_loss = 0;     // smoothed
-  double seconds = 0;        // this run
-};
+using GenTrainResult = nn::TrainRunResult;
 
 GenTrainResult train_generator(FlowGenerator& gen, const ProgramDataset& data, const GenTrainConfig& cfg,
                                const GenTrainPaths& paths, bool resume, const std::string& label = "train gen");
