@@ -51,8 +51,36 @@ std::string capsule(const std::string& name, V3 from, V3 to, double r) {
   return "<geom name=\"" + name + "\" type=\"capsule\" fromto=\"" + vec(from) + " " + vec(to) + "\" size=\"" +
          num(r) + "\"/>";
 }
-std::string box(const std::string& name, V3 c, V3 half) {
-  return "<geom name=\"" + name + "\" type=\"box\" pos=\"" + vec(c) + "\" size=\"" + vec(half) + "\"/>";
+// Planted-foot pitch: the data's feet, when planted, are pitched toe-up relative to the reference pose (median over
+// the planted frames of every 4th clip: ankle speed < 5 cm/s and ankle < 14 cm high; foot 6.3 deg, toes 6.4 deg,
+// roll < 1 deg). The sole boxes are tilted toe-down by that much in the body frame, so they lie flat on the floor
+// when the foot is planted (with flat boxes in the reference pose the standing feet touched with the heel edge only
+// and the body tipped forward about it).
+constexpr double kFootSolePitchDeg = 6.3;
+constexpr double kToesSolePitchDeg = 6.4;
+double sole_pitch(double deg) { return deg * M_PI / 180; }
+constexpr double kHeel = -0.055, kFootTop = -0.06;   // foot box: heel behind the ankle, top below it (m)
+constexpr double kToesLength = 0.06, kToesTop = -0.012;
+
+// Hips height with flat (unpitched) soles on the floor in the reference pose.
+double flat_sole_hips_height() {
+  const double ankle = std::min(rest_joint_pos(15)[2], rest_joint_pos(19)[2]);
+  return -(ankle - kSoleBelowAnkle);
+}
+// Toes box depth below the toe joint: its flat sole on that floor plane (the toe joint is 3.4 cm up there).
+double toes_sole_depth(int toes) {
+  return std::min(kToeSoleBelowJoint, flat_sole_hips_height() + rest_joint_pos(toes)[2]);
+}
+// Height (relative to the body origin) of a body-frame point (x, z) after the sole pitch about y.
+double pitched_z(double x, double z, double pitch) { return -std::sin(pitch) * x + std::cos(pitch) * z; }
+
+// Box with half sizes `half`, centred at c after rotating the body-frame box about the body origin by `pitch`
+// about y (toe down for pitch > 0).
+std::string sole_box(const std::string& name, V3 c, V3 half, double pitch) {
+  const double cs = std::cos(pitch), sn = std::sin(pitch);
+  const V3 rc{cs * c.x + sn * c.z, c.y, -sn * c.x + cs * c.z};
+  return "<geom name=\"" + name + "\" type=\"box\" pos=\"" + vec(rc) + "\" size=\"" + vec(half) + "\" euler=\"0 " +
+         num(pitch) + " 0\"/>";
 }
 
 // The geoms of body j (body frame = world axes in the reference pose, origin at the joint).
@@ -85,14 +113,13 @@ std::string body_geoms(int j) {
   if (starts("LowerLeg")) return capsule(n + "_geom", o, rel(c, j), 0.05);
   if (starts("Foot")) {
     const V3 t = rel(c, j);  // toe joint
-    const double heel = -0.055, top = -0.06, bottom = -kSoleBelowAnkle;
-    return box(n + "_geom", {(heel + t.x) / 2, t.y / 2, (top + bottom) / 2},
-               {(t.x - heel) / 2, 0.045, (top - bottom) / 2});
+    return sole_box(n + "_geom", {(kHeel + t.x) / 2, t.y / 2, (kFootTop - kSoleBelowAnkle) / 2},
+                    {(t.x - kHeel) / 2, 0.045, (kFootTop + kSoleBelowAnkle) / 2}, sole_pitch(kFootSolePitchDeg));
   }
   if (starts("Toes")) {
-    // Sole of the toes on the floor plane of the reference pose (the toe joint is 3.4 cm up there).
-    const double len = 0.06, depth = std::min(kToeSoleBelowJoint, humanoid_hips_height() + rest_joint_pos(j)[2]);
-    return box(n + "_geom", {len / 2, 0, (-depth - 0.012) / 2}, {len / 2, 0.045, (depth - 0.012) / 2});
+    const double depth = toes_sole_depth(j);
+    return sole_box(n + "_geom", {kToesLength / 2, 0, (-depth - kToesTop) / 2}, {kToesLength / 2, 0.045, (depth - kToesTop) / 2},
+                    sole_pitch(kToesSolePitchDeg));
   }
   throw Error("humanoid_mjcf: no geometry rule for joint " + n);
 }
@@ -134,8 +161,19 @@ void emit_body(std::ostringstream& x, int j, const HumanoidOptions& opt, int dep
 }  // namespace
 
 double humanoid_hips_height() {
-  const double ankle = std::min(rest_joint_pos(15)[2], rest_joint_pos(19)[2]);
-  return -(ankle - kSoleBelowAnkle);
+  // The lowest corner of the pitched foot and toes boxes in the reference pose touches the floor.
+  double lowest = 0;
+  for (int foot : {15, 19}) {
+    const int toes = foot + 1;
+    const double tx = rest_joint_pos(toes)[0] - rest_joint_pos(foot)[0];
+    const double fp = sole_pitch(kFootSolePitchDeg), tp = sole_pitch(kToesSolePitchDeg);
+    for (double x : {kHeel, tx})
+      for (double z : {kFootTop, -kSoleBelowAnkle}) lowest = std::min(lowest, rest_joint_pos(foot)[2] + pitched_z(x, z, fp));
+    for (double x : {0.0, kToesLength})
+      for (double z : {kToesTop, -toes_sole_depth(toes)})
+        lowest = std::min(lowest, rest_joint_pos(toes)[2] + pitched_z(x, z, tp));
+  }
+  return -lowest;
 }
 
 std::vector<float> humanoid_offsets() {

@@ -227,10 +227,10 @@ TEST(BfmCollect, SeedDataShapesRangeAndDeterminism) {
   TrackingCollector c(humanoid(), refs, o);
   Generator g1(7), g2(7);
   t2m::set_num_threads(1);
-  const CollectStats s = c.collect_pd(40, g1, b1);
+  const CollectStats s = c.collect_expert(40, g1, b1);
   t2m::set_num_threads(2);
   TrackingCollector c2(humanoid(), refs, o);
-  c2.collect_pd(40, g2, b2);
+  c2.collect_expert(40, g2, b2);
   EXPECT_EQ(s.transitions, 40);
   EXPECT_EQ(b1.size(), 40);
   EXPECT_GT(s.episodes, 3);  // episodes of at most 7 steps in 14 steps per env
@@ -271,10 +271,11 @@ TEST(BfmCollect, NoiselessPdActionIsTheTrackerTarget) {
   CollectOptions o;
   o.envs = 1;
   o.action_noise = 0;
+  o.expert = Expert::pd;
   ReplayBuffer b(10, refs.obs_dim, 60);
   TrackingCollector c(humanoid(), refs, o);
   Generator g(1);
-  c.collect_pd(3, g, b);
+  c.collect_expert(3, g, b);
   sim::Env env(humanoid());
   const mjModel* m = humanoid()->model();
   const int clip = (int)b.clip_at(0), t = (int)b.frame_at(0);
@@ -286,6 +287,30 @@ TEST(BfmCollect, NoiselessPdActionIsTheTrackerTarget) {
     const double lo = m->actuator_ctrlrange[2 * k], hi = m->actuator_ctrlrange[2 * k + 1];
     EXPECT_NEAR(env.action_to_ctrl(k, b.action_row(0)[k]), std::clamp(target, lo, hi), 1e-5);
   }
+}
+
+TEST(BfmCollect, NoiselessBalanceActionIsTheExpertTarget) {
+  // Expert::balance (the default): the first stored action is sim::balance_targets at the episode's start state.
+  const RefMotions refs = toy_refs();
+  CollectOptions o;
+  o.envs = 1;
+  o.action_noise = 0;
+  ASSERT_EQ(o.expert, Expert::balance);
+  ReplayBuffer b(10, refs.obs_dim, 60);
+  TrackingCollector c(humanoid(), refs, o);
+  Generator g(3);
+  c.collect_expert(2, g, b);
+  const int clip = (int)b.clip_at(0), t = (int)b.frame_at(0);
+  sim::Env env(humanoid());
+  env.reset(refs.qpos_at(clip, t), refs.qvel_at(clip, t), nullptr);
+  const sim::QposTrajectory q = refs.trajectory(clip);
+  const sim::BalanceReference br = sim::balance_reference(*humanoid(), q);
+  std::vector<double> ctrl(60);
+  sim::balance_targets(env, br.frame(q, t + 1), o.balance, ctrl.data());
+  for (int k = 0; k < 60; ++k) EXPECT_NEAR(env.action_to_ctrl(k, b.action_row(0)[k]), ctrl[k], 1e-5) << k;
+  EXPECT_EQ(expert_from_string("pd"), Expert::pd);
+  EXPECT_STREQ(expert_name(expert_from_string("balance")), "balance");
+  EXPECT_THROW(expert_from_string("mpc"), Error);
 }
 
 TEST(BfmCollect, BadOptionsThrow) {
@@ -300,7 +325,7 @@ TEST(BfmCollect, BadOptionsThrow) {
   TrackingCollector c(humanoid(), refs, o);
   ReplayBuffer wrong(10, 5, 60);
   Generator g(0);
-  EXPECT_THROW(c.collect_pd(4, g, wrong), Error);
+  EXPECT_THROW(c.collect_expert(4, g, wrong), Error);
   ReplayBuffer b(10, refs.obs_dim, 60);
-  EXPECT_THROW(c.collect_pd(-1, g, b), Error);
+  EXPECT_THROW(c.collect_expert(-1, g, b), Error);
 }

@@ -161,7 +161,7 @@ TEST(SimHumanoid, FloorPairsGiveTheSameContactsAsDynamicCollision) {
   }
   std::printf("max |qpos diff| %.3g, max contacts %d, non-foot contacts %d\n", max_diff, max_con, body_con);
   EXPECT_LT(max_diff, 1e-6);
-  EXPECT_GE(max_con, 8);    // both feet flat on the floor at some point
+  EXPECT_GE(max_con, 6);    // both feet (and toes) on the floor at some point
   EXPECT_GT(body_con, 0);   // and it fell: contacts of non-foot bodies were compared too
   mj_deleteData(dp);
   mj_deleteData(dd);

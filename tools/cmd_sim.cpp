@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "models/data/splits.h"
+#include "sim/balance_tracker.h"
 #include "sim/bvh.h"
 #include "sim/env.h"
 #include "sim/export.h"
@@ -184,6 +185,8 @@ struct PdArgs {
   double assist = 0;
   double gain_scale = 1;
   bool no_ff = false;
+  bool balance = false;
+  sim::BalanceOptions bo;
   std::string export_dir;
 };
 
@@ -208,7 +211,7 @@ void run_track_pd(const PdArgs& a) {
     try {
       const sim::QposTrajectory ref = sim::retarget(*h, load_motion(clips[i].second));
       sim::Env env(h, sim::EnvOptions{.substeps = sim::kSubsteps, .assist_force = a.assist});
-      res[i] = sim::track_pd(env, ref, po);
+      res[i] = a.balance ? sim::track_balance(env, ref, a.bo, po) : sim::track_pd(env, ref, po);
       res[i].assist_force = a.assist;
       const auto& r = res[i];
       ok[i] = 1;
@@ -332,6 +335,12 @@ void add_sim_commands(CLI::App& app) {
   p->add_flag("--no-ff", pd.no_ff, "disable the velocity feed-forward");
   p->add_option("--gain-scale", pd.gain_scale, "multiply every PD gain (kp and kd) by this factor")
       ->capture_default_str();
+  p->add_flag("--balance", pd.balance, "add stance-leg balance feedback (the BFM's expert, sim/balance_tracker.h)");
+  p->add_option("--com-kp", pd.bo.com_kp, "balance: centre-of-mass stiffness, 1/s^2")->capture_default_str();
+  p->add_option("--com-kd", pd.bo.com_kd, "balance: centre-of-mass damping, 1/s")->capture_default_str();
+  p->add_option("--root-kp", pd.bo.root_kp, "balance: root orientation stiffness, N m/rad")->capture_default_str();
+  p->add_option("--root-kd", pd.bo.root_kd, "balance: root orientation damping, N m s/rad")->capture_default_str();
+  p->add_option("--max-force", pd.bo.max_force, "balance: horizontal virtual force cap, N")->capture_default_str();
   p->add_option("--export-dir", pd.export_dir, "write the simulated motion of every clip here (NAME.bvh and NAME.qpos.json)");
   p->callback([] { run_track_pd(pd); });
 

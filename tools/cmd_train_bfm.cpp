@@ -75,6 +75,8 @@ void run_train_bfm(const TrainBfmArgs& a, CLI::App* app) {
         {"--seed", [&] { f.seed = g.seed; }},
         {"--ref-clips", [&] { f.ref_clips = g.ref_clips; }},
         {"--seed-transitions", [&] { f.seed_transitions = g.seed_transitions; }},
+        {"--seed-expert", [&] { f.seed_expert = g.seed_expert; }},
+        {"--bc-coef", [&] { f.fb.bc_coef = g.fb.bc_coef; }},
         {"--total-updates", [&] { f.total_updates = g.total_updates; }},
         {"--offline-updates", [&] { f.offline_updates = g.offline_updates; }},
         {"--envs", [&] { f.envs = g.envs; }},
@@ -120,8 +122,8 @@ void run_train_bfm(const TrainBfmArgs& a, CLI::App* app) {
     if (bar) bar->finish();
     const double s = std::chrono::duration<double>(clock::now() - t0).count();
     if (collected)
-      std::fprintf(stderr, "train bfm: %lld seed transitions (noisy PD) in %.1f s = %.0f transitions/s\n",
-                   (long long)cfg.seed_transitions, s, cfg.seed_transitions / std::max(s, 1e-9));
+      std::fprintf(stderr, "train bfm: %lld seed transitions (noisy %s expert) in %.1f s = %.0f transitions/s\n",
+                   (long long)cfg.seed_transitions, cfg.seed_expert.c_str(), s, cfg.seed_transitions / std::max(s, 1e-9));
   }
 
   t2m::nn::TrainLog log(dir + "/log.jsonl", tr.step());
@@ -193,7 +195,11 @@ void add_train_bfm(CLI::App& app) {
   c->add_option("--seed", cfg.seed, "run seed")->capture_default_str();
   c->add_option("--total-updates", cfg.total_updates, "updates of the whole run")->capture_default_str();
   c->add_option("--offline-updates", cfg.offline_updates, "updates before online collection")->capture_default_str();
-  c->add_option("--seed-transitions", cfg.seed_transitions, "noisy-PD seed transitions")->capture_default_str();
+  c->add_option("--seed-transitions", cfg.seed_transitions, "noisy-expert seed transitions")->capture_default_str();
+  c->add_option("--seed-expert", cfg.seed_expert, "seed-data tracker: balance (PD + balance feedback) | pd")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"balance", "pd"}));
+  c->add_option("--bc-coef", cfg.fb.bc_coef, "behaviour-cloning weight of the actor loss")->capture_default_str();
   c->add_option("--ref-clips", cfg.ref_clips, "training clips used (0 = all)")->capture_default_str();
   c->add_option("--envs", cfg.envs, "parallel environments")->capture_default_str();
   c->add_option("--batch", cfg.batch, "FB batch")->capture_default_str();

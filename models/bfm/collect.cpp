@@ -1,4 +1,4 @@
-// collect.cpp — parallel tracking episodes (noisy PD or policy) into a replay buffer (see collect.h).
+// collect.cpp — parallel tracking episodes (noisy expert tracker or policy) into a replay buffer (see collect.h).
 #include "models/bfm/collect.h"
 
 #include <algorithm>
@@ -82,6 +82,11 @@ TrackingCollector::TrackingCollector(std::shared_ptr<const sim::Humanoid> h, con
   qadr_.resize(A);
   dadr_.resize(A);
   ff_.resize(A);
+  ctrl_.resize((size_t)N * A);
+  if (opt.expert == Expert::balance) {
+    balance_ref_.resize(refs.clips());
+    for (int c = 0; c < refs.clips(); ++c) balance_ref_[c] = sim::balance_reference(*h_, refs.trajectory(c));
+  }
   for (int k = 0; k < A; ++k) {  // sim/pd_tracker's control law: target = qref + (kd / kp) qdref
     const int jid = m->actuator_trnid[2 * k];
     qadr_[k] = m->jnt_qposadr[jid];
@@ -99,25 +104,45 @@ void TrackingCollector::start_episode(int e, Generator& gen) {
   venv_.env(e).reset(refs_.qpos_at(c, t), refs_.qvel_at(c, t), obs_.data() + (size_t)e * refs_.obs_dim);
 }
 
-void TrackingCollector::pd_actions(Generator& gen) {
+Expert expert_from_string(const std::string& s) {
+  if (s == "pd") return Expert::pd;
+  if (s == "balance") return Expert::balance;
+  throw Error("collect: unknown expert '" + s + "' (pd | balance)");
+}
+const char* expert_name(Expert e) { return e == Expert::pd ? "pd" : "balance"; }
+
+void TrackingCollector::expert_actions(Generator& gen) {
   const int N = opt_.envs, A = venv_.action_dim();
   const mjModel* m = h_->model();
+  // Targets of every env (parallel: each reads its own env), then noise drawn serially (thread-independent).
+#pragma omp parallel for schedule(static)
+  for (int e = 0; e < N; ++e) {
+    const int c = st_[e].clip, t = st_[e].frame + 1;
+    const double* qr = refs_.qpos_at(c, t);
+    const double* vr = refs_.qvel_at(c, t);
+    double* ctrl = ctrl_.data() + (size_t)e * A;
+    if (opt_.expert == Expert::balance) {
+      sim::balance_targets(venv_.env(e), balance_ref_[c].frame(qr, vr, t), opt_.balance, ctrl);
+    } else {
+      for (int k = 0; k < A; ++k) {
+        double v = qr[qadr_[k]] + ff_[k] * vr[dadr_[k]];
+        if (m->actuator_ctrllimited[k]) v = std::clamp(v, m->actuator_ctrlrange[2 * k], m->actuator_ctrlrange[2 * k + 1]);
+        ctrl[k] = v;
+      }
+    }
+  }
   const Tensor noise = opt_.action_noise > 0 ? rand_normal({N, A}, gen, 0.0, opt_.action_noise) : Tensor();
   for (int e = 0; e < N; ++e) {
-    const double* qr = refs_.qpos_at(st_[e].clip, st_[e].frame + 1);
-    const double* vr = refs_.qvel_at(st_[e].clip, st_[e].frame + 1);
     const sim::Env& env = venv_.env(e);
     for (int k = 0; k < A; ++k) {
-      double c = qr[qadr_[k]] + ff_[k] * vr[dadr_[k]];
-      if (m->actuator_ctrllimited[k]) c = std::clamp(c, m->actuator_ctrlrange[2 * k], m->actuator_ctrlrange[2 * k + 1]);
-      double a = env.ctrl_to_action(k, c);
+      double a = env.ctrl_to_action(k, ctrl_[(size_t)e * A + k]);
       if (noise.defined()) a += noise.data<float>()[(size_t)e * A + k];
       actions_[(size_t)e * A + k] = (float)std::clamp(a, -1.0, 1.0);
     }
   }
 }
 
-CollectStats TrackingCollector::collect_pd(int64_t n, Generator& gen, ReplayBuffer& buf) {
+CollectStats TrackingCollector::collect_expert(int64_t n, Generator& gen, ReplayBuffer& buf) {
   return run(n, gen, buf, nullptr, nullptr);
 }
 
@@ -158,7 +183,7 @@ CollectStats TrackingCollector::run(int64_t n, Generator& gen, ReplayBuffer& buf
         actions_[i] = std::clamp(a, -1.0f, 1.0f);
       }
     } else {
-      pd_actions(gen);
+      expert_actions(gen);
     }
     venv_.step(actions_.data(), next_obs_.data());
     // Frame errors against the reference frame each env was tracking towards (parallel: read-only per env).

@@ -1,9 +1,10 @@
 // collect.h — tracking episodes in parallel MuJoCo environments that fill a replay buffer:
-//   seed data: the noisy PD tracker (sim/pd_tracker's control law) in the policy's [-1, 1] action space;
+//   seed data: a noisy expert tracker in the policy's [-1, 1] action space: the PD tracker (sim/pd_tracker's
+//   control law) or PD plus stance-leg balance feedback (sim/balance_tracker, the default);
 //   online data: the current policy pi(a | s, z_t) with z_t from Text2BFM Eq 2 on the reference (tracking).
 //
 //   TrackingCollector col(humanoid, refs, opt);
-//   col.collect_pd(100000, seed_gen, buf);                          // 100k seed transitions
+//   col.collect_expert(100000, seed_gen, buf);                      // 100k seed transitions
 //   col.collect_policy(4096, encode_B, policy, gen, online_buf);     // one round of online collection
 //
 // Episodes: an env starts at a frame t0 drawn uniformly among all reference frames that have a successor (over
@@ -14,31 +15,41 @@
 // a new episode at once. A diverged physics step stores nothing and restarts the env.
 // Calls are self-contained: every call starts fresh episodes in all envs and runs ceil(n / envs) steps per env
 // (the last step's rows beyond n are dropped), so a training run that saves between calls resumes bit-identically.
-// Determinism: start frames and PD noise come from the Generator passed in, drawn serially in env order; the
+// Determinism: start frames and expert noise come from the Generator passed in, drawn serially in env order; the
 // physics runs in parallel (OpenMP over envs, sim::VecEnv) but each env is independent, so the buffer contents do
 // not depend on the thread count.
-// PD action of actuator k at step t -> t+1: a_k = ctrl_to_action(clamp(qref[t+1, k] + (kd/kp) qdref[t+1, k]))
-// + N(0, action_noise^2), clamped to [-1, 1] (the target sim/pd_tracker uses, expressed as an action).
+// Expert action of actuator k at step t -> t+1: a_k = ctrl_to_action(target_k) + N(0, action_noise^2), clamped to
+// [-1, 1], where target_k = clamp(qref[t+1, k] + (kd/kp) qdref[t+1, k]) (Expert::pd, the target sim/pd_tracker
+// uses) or sim::balance_targets for reference frame t+1 (Expert::balance).
 // Errors (t2m::Error "collect: ..."): envs < 1, max_episode_steps < 1, fail_distance <= 0, negative noise,
 // n < 0, references of another model, a policy returning actions of the wrong shape or non-finite values.
 #pragma once
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <string>
+#include <vector>
 
 #include "models/bfm/ref_motions.h"
 #include "models/bfm/replay_buffer.h"
+#include "sim/balance_tracker.h"
 #include "sim/env.h"
 #include "tensor/rng.h"
 #include "tensor/tensor.h"
 
 namespace t2m::bfm {
 
+enum class Expert { pd, balance };
+Expert expert_from_string(const std::string& s);  // "pd" | "balance"; anything else: t2m::Error
+const char* expert_name(Expert e);
+
 struct CollectOptions {
   int envs = 16;                // parallel environments
   int max_episode_steps = 150;  // 5 s at 30 Hz
   double fail_distance = 0.5;   // m; sim::PdOptions' default
-  double action_noise = 0.1;    // PD: std of the Gaussian added to the action; policy: passed to the policy
+  double action_noise = 0.1;    // expert: std of the Gaussian added to the action; policy: passed to the policy
+  Expert expert = Expert::balance;
+  sim::BalanceOptions balance;  // Expert::balance gains
   int window = 8;               // L of Eq 2 (policy collection)
 };
 
@@ -67,7 +78,7 @@ class TrackingCollector {
  public:
   TrackingCollector(std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs, CollectOptions opt = {});
 
-  CollectStats collect_pd(int64_t n, Generator& gen, ReplayBuffer& buf);
+  CollectStats collect_expert(int64_t n, Generator& gen, ReplayBuffer& buf);
   CollectStats collect_policy(int64_t n, const EncodeFn& encode, const PolicyFn& policy, Generator& gen,
                               ReplayBuffer& buf);
   const CollectOptions& options() const { return opt_; }
@@ -78,7 +89,7 @@ class TrackingCollector {
   };
   CollectStats run(int64_t n, Generator& gen, ReplayBuffer& buf, const EncodeFn* encode, const PolicyFn* policy);
   void start_episode(int e, Generator& gen);
-  void pd_actions(Generator& gen);
+  void expert_actions(Generator& gen);
 
   std::shared_ptr<const sim::Humanoid> h_;
   const RefMotions& refs_;
@@ -89,7 +100,8 @@ class TrackingCollector {
   std::vector<EnvState> st_;
   std::vector<float> obs_, next_obs_, actions_;  // [N, D], [N, D], [N, A]
   std::vector<int> qadr_, dadr_;
-  std::vector<double> ff_;
+  std::vector<double> ff_, ctrl_;  // ctrl_ [N, A]
+  std::vector<sim::BalanceReference> balance_ref_;  // per clip (Expert::balance)
 };
 
 }  // namespace t2m::bfm

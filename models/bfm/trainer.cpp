@@ -30,6 +30,7 @@ json BfmTrainConfig::to_json() const {
           {"ref_clips", ref_clips},
           {"seed_transitions", seed_transitions},
           {"seed_noise", seed_noise},
+          {"seed_expert", seed_expert},
           {"envs", envs},
           {"max_episode_steps", max_episode_steps},
           {"total_updates", total_updates},
@@ -57,6 +58,7 @@ BfmTrainConfig BfmTrainConfig::from_json(const json& j) {
       else if (k == "ref_clips") c.ref_clips = v.get<int>();
       else if (k == "seed_transitions") c.seed_transitions = v.get<int64_t>();
       else if (k == "seed_noise") c.seed_noise = v.get<double>();
+      else if (k == "seed_expert") c.seed_expert = v.get<std::string>();
       else if (k == "envs") c.envs = v.get<int>();
       else if (k == "max_episode_steps") c.max_episode_steps = v.get<int>();
       else if (k == "total_updates") c.total_updates = v.get<int64_t>();
@@ -90,6 +92,7 @@ void BfmTrainConfig::validate() const {
   if (!(seed_noise >= 0) || !(online_noise >= 0)) bad("noise must be >= 0");
   if (!(z_track >= 0 && z_goal >= 0 && z_track + z_goal <= 1)) bad("z_track, z_goal in [0, 1] with sum <= 1");
   if (ref_clips < 0) bad("ref_clips must be >= 0");
+  if (seed_expert != "pd" && seed_expert != "balance") bad("seed_expert must be 'pd' or 'balance'");
 }
 
 EncodeFn agent_encoder(FbAgent& agent) {
@@ -147,7 +150,7 @@ BfmTrainer::~BfmTrainer() = default;
 
 void BfmTrainer::prepare_seed(const std::function<void(int64_t, int64_t)>& on_progress) {
   const json id = {{"seed", cfg_.seed},   {"ref_clips", cfg_.ref_clips}, {"transitions", cfg_.seed_transitions},
-                   {"noise", cfg_.seed_noise}, {"envs", cfg_.envs}, {"max_episode_steps", cfg_.max_episode_steps},
+                   {"noise", cfg_.seed_noise}, {"expert", cfg_.seed_expert}, {"envs", cfg_.envs}, {"max_episode_steps", cfg_.max_episode_steps},
                    {"ref_names_frames", refs_.total_frames()}};
   const std::string id_path = dir_ + "/seed_buffer.json";
   if (fs::exists(seed_path()) && fs::exists(id_path)) {
@@ -171,12 +174,13 @@ void BfmTrainer::prepare_seed(const std::function<void(int64_t, int64_t)>& on_pr
   seed_ = std::make_unique<ReplayBuffer>(cfg_.seed_transitions, cfg_.fb.obs_dim, cfg_.fb.action_dim);
   CollectOptions co = collector_->options();
   co.action_noise = cfg_.seed_noise;
-  TrackingCollector pd(h_, refs_, co);
+  co.expert = expert_from_string(cfg_.seed_expert);
+  TrackingCollector expert(h_, refs_, co);
   Generator g(gen_seed_.seed());  // always from the start: the seed buffer is a pure function of the config
   const int64_t chunk = 8192;
   for (int64_t done = 0; done < cfg_.seed_transitions;) {
     const int64_t n = std::min(chunk, cfg_.seed_transitions - done);
-    pd.collect_pd(n, g, *seed_);
+    expert.collect_expert(n, g, *seed_);
     done += n;
     if (on_progress) on_progress(done, cfg_.seed_transitions);
   }

@@ -40,7 +40,8 @@ struct BfmTrainConfig {
   uint64_t seed = 0;
   int ref_clips = 300;              // training clips used as references (0 = all of the split)
   int64_t seed_transitions = 60000;  // ARCHITECTURE: 1.5-2M; ~220/s on the loaded 2-core machine (docs/BFM.md)
-  double seed_noise = 0.1;          // PD action noise of the seed data
+  double seed_noise = 0.1;          // expert action noise of the seed data
+  std::string seed_expert = "balance";  // the seed data's tracker: "balance" (PD + balance feedback) or "pd"
   int envs = 16;                    // parallel environments for collection
   int max_episode_steps = 150;
   int64_t total_updates = 20000;
