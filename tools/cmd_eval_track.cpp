@@ -29,6 +29,7 @@ struct EvalTrackArgs {
   std::string manifest, split = "test", out;
   int clips = 0, threads = 0, kl_window = 4;
   bool no_pd = false;
+  bool expert = false;
 };
 
 json rows_json(const bfm::RefMotions& refs, const std::vector<t2m::sim::PdResult>& r) {
@@ -45,7 +46,7 @@ json rows_json(const bfm::RefMotions& refs, const std::vector<t2m::sim::PdResult
 }
 
 void print_row(const char* who, const json& s) {
-  std::printf("%-5s success %5.1f%%  fall %5.1f%%  MPJPE %7.1f mm  root drift %5.2f m  frames tracked %5.1f%%\n", who,
+  std::printf("%-17s success %5.1f%%  fall %5.1f%%  MPJPE %7.1f mm  root drift %5.2f m  frames tracked %5.1f%%\n", who,
               100 * s["success_rate"].get<double>(), 100 * s["fall_rate"].get<double>(),
               1e3 * s["mpjpe_m"].get<double>(), s["root_drift_m"].get<double>(),
               100 * s["mean_fraction_of_frames_tracked"].get<double>());
@@ -88,6 +89,15 @@ void run_eval_track(const EvalTrackArgs& a) {
     result["pd_clips"] = rows_json(refs, pd_res);
     print_row("PD", ps);
   }
+  if (a.expert) {
+    t0 = clock::now();
+    const auto ex_res = bfm::track_balance_all(h, refs);
+    const json es = bfm::summarize_tracking(ex_res);
+    result["balance_expert"] = es;
+    result["balance_expert_seconds"] = std::chrono::duration<double>(clock::now() - t0).count();
+    result["balance_expert_clips"] = rows_json(refs, ex_res);
+    print_row("PD+balance expert", es);
+  }
   const std::vector<double> kl = bfm::window_action_kl(*agent, refs, a.kl_window);
   double kl_mean = 0;
   for (double k : kl) kl_mean += k;
@@ -114,6 +124,7 @@ void add_eval_track(CLI::App& app) {
   c->add_option("--clips", a.clips, "evaluate N clips spread over the split (0 = all)")->capture_default_str();
   c->add_option("--kl-window", a.kl_window, "window L of z_hat for the Eq 21 action KL")->capture_default_str();
   c->add_flag("--no-pd", a.no_pd, "skip the PD baseline");
+  c->add_flag("--expert", a.expert, "also run the balance-feedback expert the BFM's seed data comes from");
   c->add_option("--threads", a.threads, "threads (0 = default)");
   c->add_option("--out", a.out, "write the JSON result here (atomic)");
   c->callback([] { run_eval_track(a); });

@@ -1,6 +1,7 @@
 // track_eval.cpp — BFM rollouts in lockstep, the PD baseline and the action KL (see track_eval.h).
 #include "models/bfm/track_eval.h"
 
+
 #include <algorithm>
 #include <cstring>
 
@@ -87,8 +88,11 @@ std::vector<sim::PdResult> track_bfm(FbAgent& agent, std::shared_ptr<const sim::
   return out;
 }
 
-std::vector<sim::PdResult> track_pd_all(std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs,
-                                        const sim::PdOptions& opt) {
+namespace {
+// One controller over every clip (OpenMP over clips); `who` names it in errors.
+template <class Track>
+std::vector<sim::PdResult> track_all(std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs, const char* who,
+                                     Track track) {
   check_refs(nullptr, *h, refs);
   const int N = refs.clips();
   std::vector<sim::PdResult> out(N);
@@ -97,15 +101,27 @@ std::vector<sim::PdResult> track_pd_all(std::shared_ptr<const sim::Humanoid> h, 
   for (int c = 0; c < N; ++c) {
     try {
       sim::Env env(h);
-      out[c] = sim::track_pd(env, refs.trajectory(c), opt);
+      out[c] = track(env, refs.trajectory(c));
       out[c].simulated = {};
     } catch (const std::exception& e) {
       err[c] = e.what();
     }
   }
   for (int c = 0; c < N; ++c)
-    if (!err[c].empty()) throw Error("track eval: PD on " + refs.names[c] + ": " + err[c]);
+    if (!err[c].empty()) throw Error(std::string("track eval: ") + who + " on " + refs.names[c] + ": " + err[c]);
   return out;
+}
+}  // namespace
+
+std::vector<sim::PdResult> track_pd_all(std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs,
+                                        const sim::PdOptions& opt) {
+  return track_all(h, refs, "PD", [&](sim::Env& env, const sim::QposTrajectory& q) { return sim::track_pd(env, q, opt); });
+}
+
+std::vector<sim::PdResult> track_balance_all(std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs,
+                                             const sim::BalanceOptions& bal, const sim::PdOptions& opt) {
+  return track_all(h, refs, "balance expert",
+                   [&](sim::Env& env, const sim::QposTrajectory& q) { return sim::track_balance(env, q, bal, opt); });
 }
 
 std::vector<double> window_action_kl(FbAgent& agent, const RefMotions& refs, int L_hat) {

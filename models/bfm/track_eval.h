@@ -9,7 +9,8 @@
 // the physics); results do not depend on the thread count.
 // track_bfm's results carry the simulated trajectory (PdResult::simulated: qpos/qvel of frames 0..T-1, frame 0 =
 // the reference start), what `t2m eval text2bfm --tracking` scores.
-// PD baseline: sim::track_pd on the same clips (OpenMP over clips).
+// PD baseline: sim::track_pd on the same clips (OpenMP over clips); the balance expert the seed data comes from
+// (sim::track_balance) likewise.
 // Action KL (Text2BFM Eq 21): per clip, KL(pi(.|s_t, z^hat_t) || pi(.|s_t, z_t)) averaged over the T-1 reference
 // states, with z from Eq 2 at L = track_window and z^hat from Eq 2 at another window L_hat (a sensitivity number
 // for the latent sequences; FbAgent::action_kl).
@@ -21,6 +22,7 @@
 
 #include "models/bfm/fb_agent.h"
 #include "models/bfm/ref_motions.h"
+#include "sim/balance_tracker.h"
 #include "sim/pd_tracker.h"
 
 namespace t2m::bfm {
@@ -29,6 +31,8 @@ std::vector<sim::PdResult> track_bfm(FbAgent& agent, std::shared_ptr<const sim::
                                      const sim::PdOptions& opt = {});
 std::vector<sim::PdResult> track_pd_all(std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs,
                                         const sim::PdOptions& opt = {});
+std::vector<sim::PdResult> track_balance_all(std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs,
+                                             const sim::BalanceOptions& bal = {}, const sim::PdOptions& opt = {});
 // Per-clip Eq 21 action KL between the Eq 2 latents with windows L_hat and the agent's track_window.
 std::vector<double> window_action_kl(FbAgent& agent, const RefMotions& refs, int L_hat);
 
