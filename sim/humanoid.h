@@ -54,7 +54,8 @@ const std::array<HumanoidJointSpec, kHumanoidBodies>& humanoid_joint_spec();
 const std::array<double, 4>& rest_world_rot(int j);
 // Position of joint j in the reference pose relative to the hips (metres, world axes); [0] = 0.
 const std::array<double, 3>& rest_joint_pos(int j);
-// Hips height above the floor in the reference pose with the soles on the floor (metres).
+// Hips height above the floor in the reference pose with the lowest corner of the (pitched, see humanoid.cpp)
+// foot and toes boxes on the floor (metres).
 double humanoid_hips_height();
 // Rest offsets [21, 3] of the canonical Motion (metres, Z up): the bone offsets of the spec, Hips at its height.
 std::vector<float> humanoid_offsets();

@@ -155,6 +155,37 @@ TEST(BfmReplay, SaveLoadRoundTrip) {
   EXPECT_EQ(ReplayBuffer::load(p).size(), 3);
 }
 
+TEST(BfmReplay, ExpertLabelsAreStoredSampledAndSaved) {
+  ReplayBuffer b(6, 5, 2, /*with_expert_labels=*/true), plain(6, 5, 2);
+  ASSERT_TRUE(b.has_expert_labels());
+  std::vector<float> o(5, 1.0f), a(2, 0.5f), e(2);
+  for (int i = 0; i < 8; ++i) {  // wraps
+    e[0] = (float)i, e[1] = -(float)i;
+    b.add(o.data(), a.data(), o.data(), 1.0f, 0, i, e.data());
+  }
+  EXPECT_THROW(b.add(o.data(), a.data(), o.data(), 1.0f, 0, 0), Error);                 // label missing
+  EXPECT_THROW(plain.add(o.data(), a.data(), o.data(), 1.0f, 0, 0, e.data()), Error);   // label not wanted
+  e[0] = NAN;
+  EXPECT_THROW(b.add(o.data(), a.data(), o.data(), 1.0f, 0, 0, e.data()), Error);
+  EXPECT_THROW(plain.expert_action_row(0), Error);
+  for (int i = 0; i < 6; ++i) EXPECT_EQ(b.expert_action_row(i)[0], (float)b.frame_at(i));
+  Generator g(4);
+  const ReplayBatch s = b.sample(20, g);
+  ASSERT_EQ(s.expert_action.shape(), (Shape{20, 2}));
+  for (int k = 0; k < 20; ++k) {
+    EXPECT_EQ(s.expert_action.data<float>()[2 * k], (float)s.frame.data<int64_t>()[k]);
+    EXPECT_EQ(s.expert_action.data<float>()[2 * k + 1], -(float)s.frame.data<int64_t>()[k]);
+  }
+  const std::string p = tmp_path("rb_labels.t2mckpt");
+  b.save(p);
+  const ReplayBuffer r = ReplayBuffer::load(p);
+  ASSERT_TRUE(r.has_expert_labels());
+  for (int i = 0; i < 6; ++i) EXPECT_EQ(r.expert_action_row(i)[1], b.expert_action_row(i)[1]);
+  fill(plain, 3);
+  plain.save(p);
+  EXPECT_FALSE(ReplayBuffer::load(p).has_expert_labels());
+}
+
 TEST(BfmReplay, LoadRejectsBadFiles) {
   ReplayBuffer b(6, 5, 2);
   fill(b, 4);
@@ -311,6 +342,38 @@ TEST(BfmCollect, NoiselessBalanceActionIsTheExpertTarget) {
   EXPECT_EQ(expert_from_string("pd"), Expert::pd);
   EXPECT_STREQ(expert_name(expert_from_string("balance")), "balance");
   EXPECT_THROW(expert_from_string("mpc"), Error);
+}
+
+TEST(BfmCollect, PolicyRowsCarryTheExpertLabelOfTheirState) {
+  // DAgger relabelling: a policy that always outputs 0 visits states; each row's label is the noiseless expert
+  // action in that row's state (checked by replaying the row's start state for the first row of env 0), and the
+  // stored action stays the policy's.
+  const RefMotions refs = toy_refs();
+  CollectOptions o;
+  o.envs = 2;
+  o.action_noise = 0;
+  ReplayBuffer b(20, refs.obs_dim, 60, /*with_expert_labels=*/true);
+  TrackingCollector c(humanoid(), refs, o);
+  const EncodeFn enc = [](const Tensor& s) { return Tensor::full({s.size(0), 4}, 1.0f); };
+  const PolicyFn zero = [](const Tensor& obs, const Tensor&, float, Generator&, Tensor& a) {
+    a = Tensor::zeros({obs.size(0), 60});
+  };
+  Generator g(5);
+  c.collect_policy(6, enc, zero, g, b);
+  ASSERT_EQ(b.size(), 6);
+  for (int k = 0; k < 60; ++k) EXPECT_EQ(b.action_row(0)[k], 0.0f);
+  const int clip = (int)b.clip_at(0), t = (int)b.frame_at(0);
+  sim::Env env(humanoid());
+  env.reset(refs.qpos_at(clip, t), refs.qvel_at(clip, t), nullptr);
+  const sim::QposTrajectory q = refs.trajectory(clip);
+  std::vector<double> ctrl(60);
+  sim::balance_targets(env, sim::balance_reference(*humanoid(), q).frame(q, t + 1), o.balance, ctrl.data());
+  for (int k = 0; k < 60; ++k)
+    EXPECT_NEAR(b.expert_action_row(0)[k], std::clamp(env.ctrl_to_action(k, ctrl[k]), -1.0, 1.0), 1e-6) << k;
+  // Later rows of env 0 (rows 2, 4) are in states the zero policy produced, and their labels differ from row 0's.
+  double diff = 0;
+  for (int k = 0; k < 60; ++k) diff += std::fabs(b.expert_action_row(4)[k] - b.expert_action_row(0)[k]);
+  EXPECT_GT(diff, 1e-3);
 }
 
 TEST(BfmCollect, BadOptionsThrow) {

@@ -77,6 +77,7 @@ void run_train_bfm(const TrainBfmArgs& a, CLI::App* app) {
         {"--seed-transitions", [&] { f.seed_transitions = g.seed_transitions; }},
         {"--seed-expert", [&] { f.seed_expert = g.seed_expert; }},
         {"--bc-coef", [&] { f.fb.bc_coef = g.fb.bc_coef; }},
+        {"--no-dagger", [&] { f.dagger = g.dagger; }},
         {"--total-updates", [&] { f.total_updates = g.total_updates; }},
         {"--offline-updates", [&] { f.offline_updates = g.offline_updates; }},
         {"--envs", [&] { f.envs = g.envs; }},
@@ -199,6 +200,8 @@ void add_train_bfm(CLI::App& app) {
   c->add_option("--seed-expert", cfg.seed_expert, "seed-data tracker: balance (PD + balance feedback) | pd")
       ->capture_default_str()
       ->check(CLI::IsMember({"balance", "pd"}));
+  c->add_flag("--no-dagger{false}", cfg.dagger,
+              "BC on the seed actions only (default: expert labels, half on the policy's relabelled online states)");
   c->add_option("--bc-coef", cfg.fb.bc_coef, "behaviour-cloning weight of the actor loss")->capture_default_str();
   c->add_option("--ref-clips", cfg.ref_clips, "training clips used (0 = all)")->capture_default_str();
   c->add_option("--envs", cfg.envs, "parallel environments")->capture_default_str();

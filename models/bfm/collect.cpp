@@ -83,6 +83,7 @@ TrackingCollector::TrackingCollector(std::shared_ptr<const sim::Humanoid> h, con
   dadr_.resize(A);
   ff_.resize(A);
   ctrl_.resize((size_t)N * A);
+  labels_.resize((size_t)N * A);
   if (opt.expert == Expert::balance) {
     balance_ref_.resize(refs.clips());
     for (int c = 0; c < refs.clips(); ++c) balance_ref_[c] = sim::balance_reference(*h_, refs.trajectory(c));
@@ -111,18 +112,19 @@ Expert expert_from_string(const std::string& s) {
 }
 const char* expert_name(Expert e) { return e == Expert::pd ? "pd" : "balance"; }
 
-void TrackingCollector::expert_actions(Generator& gen) {
+void TrackingCollector::expert_labels() {
   const int N = opt_.envs, A = venv_.action_dim();
   const mjModel* m = h_->model();
-  // Targets of every env (parallel: each reads its own env), then noise drawn serially (thread-independent).
+  // Targets of every env (parallel: each reads its own env), as noiseless actions.
 #pragma omp parallel for schedule(static)
   for (int e = 0; e < N; ++e) {
     const int c = st_[e].clip, t = st_[e].frame + 1;
     const double* qr = refs_.qpos_at(c, t);
     const double* vr = refs_.qvel_at(c, t);
     double* ctrl = ctrl_.data() + (size_t)e * A;
+    const sim::Env& env = venv_.env(e);
     if (opt_.expert == Expert::balance) {
-      sim::balance_targets(venv_.env(e), balance_ref_[c].frame(qr, vr, t), opt_.balance, ctrl);
+      sim::balance_targets(env, balance_ref_[c].frame(qr, vr, t), opt_.balance, ctrl);
     } else {
       for (int k = 0; k < A; ++k) {
         double v = qr[qadr_[k]] + ff_[k] * vr[dadr_[k]];
@@ -130,15 +132,19 @@ void TrackingCollector::expert_actions(Generator& gen) {
         ctrl[k] = v;
       }
     }
+    for (int k = 0; k < A; ++k)
+      labels_[(size_t)e * A + k] = (float)std::clamp(env.ctrl_to_action(k, ctrl[k]), -1.0, 1.0);
   }
+}
+
+void TrackingCollector::expert_actions(Generator& gen) {
+  const int N = opt_.envs, A = venv_.action_dim();
+  expert_labels();
+  // Noise drawn serially (thread-independent).
   const Tensor noise = opt_.action_noise > 0 ? rand_normal({N, A}, gen, 0.0, opt_.action_noise) : Tensor();
-  for (int e = 0; e < N; ++e) {
-    const sim::Env& env = venv_.env(e);
-    for (int k = 0; k < A; ++k) {
-      double a = env.ctrl_to_action(k, ctrl_[(size_t)e * A + k]);
-      if (noise.defined()) a += noise.data<float>()[(size_t)e * A + k];
-      actions_[(size_t)e * A + k] = (float)std::clamp(a, -1.0, 1.0);
-    }
+  for (size_t i = 0; i < (size_t)N * A; ++i) {
+    const double a = labels_[i] + (noise.defined() ? noise.data<float>()[i] : 0.0f);
+    actions_[i] = (float)std::clamp(a, -1.0, 1.0);
   }
 }
 
@@ -182,6 +188,7 @@ CollectStats TrackingCollector::run(int64_t n, Generator& gen, ReplayBuffer& buf
         if (!std::isfinite(a)) throw Error("collect: the policy returned a non-finite action");
         actions_[i] = std::clamp(a, -1.0f, 1.0f);
       }
+      if (buf.has_expert_labels()) expert_labels();  // DAgger: what the expert would do in the policy's states
     } else {
       expert_actions(gen);
     }
@@ -209,7 +216,8 @@ CollectStats TrackingCollector::run(int64_t n, Generator& gen, ReplayBuffer& buf
         continue;
       }
       if (s.transitions < n) {
-        buf.add(o, actions_.data() + (size_t)e * A, no, 1.0f, es.clip, es.frame);
+        buf.add(o, actions_.data() + (size_t)e * A, no, 1.0f, es.clip, es.frame,
+                buf.has_expert_labels() ? labels_.data() + (size_t)e * A : nullptr);
         ++s.transitions;
       }
       ++es.frame;

@@ -21,6 +21,9 @@
 // Expert action of actuator k at step t -> t+1: a_k = ctrl_to_action(target_k) + N(0, action_noise^2), clamped to
 // [-1, 1], where target_k = clamp(qref[t+1, k] + (kd/kp) qdref[t+1, k]) (Expert::pd, the target sim/pd_tracker
 // uses) or sim::balance_targets for reference frame t+1 (Expert::balance).
+// Expert labels: into a buffer with expert labels (ReplayBuffer with_expert_labels) every row also gets the
+// expert's noiseless action in the row's state s_t (for expert collection the action before the noise; for policy
+// collection what the expert would have done where the policy went: DAgger's relabelling).
 // Errors (t2m::Error "collect: ..."): envs < 1, max_episode_steps < 1, fail_distance <= 0, negative noise,
 // n < 0, references of another model, a policy returning actions of the wrong shape or non-finite values.
 #pragma once
@@ -89,7 +92,8 @@ class TrackingCollector {
   };
   CollectStats run(int64_t n, Generator& gen, ReplayBuffer& buf, const EncodeFn* encode, const PolicyFn* policy);
   void start_episode(int e, Generator& gen);
-  void expert_actions(Generator& gen);
+  void expert_actions(Generator& gen);  // noiseless expert actions into labels_, plus noise into actions_
+  void expert_labels();                 // labels_ [N, A]: the expert's (noiseless) action in every env's state
 
   std::shared_ptr<const sim::Humanoid> h_;
   const RefMotions& refs_;
@@ -101,6 +105,7 @@ class TrackingCollector {
   std::vector<float> obs_, next_obs_, actions_;  // [N, D], [N, D], [N, A]
   std::vector<int> qadr_, dadr_;
   std::vector<double> ff_, ctrl_;  // ctrl_ [N, A]
+  std::vector<float> labels_;      // [N, A]
   std::vector<sim::BalanceReference> balance_ref_;  // per clip (Expert::balance)
 };
 

@@ -23,8 +23,8 @@ ReplayBatch make_replay_batch(int64_t n, int obs_dim, int action_dim) {
   return b;
 }
 
-ReplayBuffer::ReplayBuffer(int64_t capacity, int obs_dim, int action_dim)
-    : capacity_(capacity), obs_dim_(obs_dim), action_dim_(action_dim) {
+ReplayBuffer::ReplayBuffer(int64_t capacity, int obs_dim, int action_dim, bool with_expert_labels)
+    : capacity_(capacity), obs_dim_(obs_dim), action_dim_(action_dim), labels_(with_expert_labels) {
   if (capacity < 1 || obs_dim < 1 || action_dim < 1)
     throw Error("replay buffer: capacity " + num(capacity) + ", obs_dim " + num(obs_dim) + ", action_dim " +
                 num(action_dim) + " (each must be >= 1)");
@@ -34,12 +34,20 @@ ReplayBuffer::ReplayBuffer(int64_t capacity, int obs_dim, int action_dim)
   not_done_ = Tensor::empty({capacity});
   clip_ = Tensor::empty({capacity}, DType::i64);
   frame_ = Tensor::empty({capacity}, DType::i64);
+  if (labels_) expert_action_ = Tensor::empty({capacity, action_dim});
 }
 
 void ReplayBuffer::clear() { size_ = cursor_ = added_ = 0; }
 
 void ReplayBuffer::add(const float* obs, const float* action, const float* next_obs, float not_done, int64_t clip,
-                       int64_t frame) {
+                       int64_t frame, const float* expert_action) {
+  if (labels_ != (expert_action != nullptr))
+    throw Error(labels_ ? "replay buffer: add: this buffer needs an expert action per row"
+                        : "replay buffer: add: an expert action given to a buffer without expert labels");
+  if (labels_)
+    for (int i = 0; i < action_dim_; ++i)
+      if (!std::isfinite(expert_action[i]))
+        throw Error("replay buffer: add: non-finite expert action value at index " + num(i));
   for (int i = 0; i < obs_dim_; ++i)
     if (!std::isfinite(obs[i]) || !std::isfinite(next_obs[i]))
       throw Error("replay buffer: add: non-finite observation value at index " + num(i));
@@ -54,6 +62,7 @@ void ReplayBuffer::add(const float* obs, const float* action, const float* next_
   not_done_.data<float>()[r] = not_done;
   clip_.data<int64_t>()[r] = clip;
   frame_.data<int64_t>()[r] = frame;
+  if (labels_) std::memcpy(expert_action_.data<float>() + r * action_dim_, expert_action, sizeof(float) * action_dim_);
   cursor_ = (cursor_ + 1) % capacity_;
   size_ = std::min(size_ + 1, capacity_);
   ++added_;
@@ -74,6 +83,11 @@ const float* ReplayBuffer::next_obs_row(int64_t i) const {
 float ReplayBuffer::not_done_at(int64_t i) const { check_row(i); return not_done_.data<float>()[i]; }
 int64_t ReplayBuffer::clip_at(int64_t i) const { check_row(i); return clip_.data<int64_t>()[i]; }
 int64_t ReplayBuffer::frame_at(int64_t i) const { check_row(i); return frame_.data<int64_t>()[i]; }
+const float* ReplayBuffer::expert_action_row(int64_t i) const {
+  if (!labels_) throw Error("replay buffer: this buffer has no expert labels");
+  check_row(i);
+  return expert_action_.data<float>() + i * action_dim_;
+}
 
 void ReplayBuffer::gather(const int64_t* index, int64_t n, ReplayBatch& out) const {
   const auto need = [&](const Tensor& t, const Shape& s, DType d, const char* name) {
@@ -88,6 +102,11 @@ void ReplayBuffer::gather(const int64_t* index, int64_t n, ReplayBatch& out) con
   need(out.clip, {n}, DType::i64, "clip");
   need(out.frame, {n}, DType::i64, "frame");
   for (int64_t k = 0; k < n; ++k) check_row(index[k]);
+  if (labels_ && (!out.expert_action.defined() || out.expert_action.shape() != Shape{n, action_dim_} ||
+                  out.expert_action.dtype() != DType::f32 || !out.expert_action.is_contiguous()))
+    out.expert_action = Tensor::empty({n, action_dim_});
+  float* oe = labels_ ? out.expert_action.data<float>() : nullptr;
+  const float* e = labels_ ? expert_action_.data<float>() : nullptr;
   const float *o = obs_.data<float>(), *a = action_.data<float>(), *no = next_obs_.data<float>();
   float *oo = out.obs.data<float>(), *oa = out.action.data<float>(), *ono = out.next_obs.data<float>();
   float* od = out.not_done.data<float>();
@@ -101,6 +120,7 @@ void ReplayBuffer::gather(const int64_t* index, int64_t n, ReplayBatch& out) con
     od[k] = not_done_.data<float>()[r];
     oc[k] = clip_.data<int64_t>()[r];
     of[k] = frame_.data<int64_t>()[r];
+    if (oe) std::memcpy(oe + k * action_dim_, e + r * action_dim_, sizeof(float) * action_dim_);
   }
 }
 
@@ -128,13 +148,15 @@ ReplayBatch ReplayBuffer::sample(int64_t n, Generator& gen) const {
 void ReplayBuffer::save(const std::string& path) const {
   nn::Checkpoint ck;
   ck.meta = {{"format", "t2m-replay-1"}, {"capacity", capacity_}, {"size", size_},     {"cursor", cursor_},
-             {"obs_dim", obs_dim_},      {"action_dim", action_dim_}, {"added", added_}};
+             {"obs_dim", obs_dim_},      {"action_dim", action_dim_}, {"added", added_},
+             {"expert_labels", labels_}};
   ck.put("obs", obs_.narrow(0, 0, size_));
   ck.put("action", action_.narrow(0, 0, size_));
   ck.put("next_obs", next_obs_.narrow(0, 0, size_));
   ck.put("not_done", not_done_.narrow(0, 0, size_));
   ck.put("clip", clip_.narrow(0, 0, size_));
   ck.put("frame", frame_.narrow(0, 0, size_));
+  if (labels_) ck.put("expert_action", expert_action_.narrow(0, 0, size_));
   ck.save(path);
 }
 
@@ -145,7 +167,9 @@ ReplayBuffer ReplayBuffer::load(const std::string& path) {
   if (!m.is_object() || m.value("format", std::string()) != "t2m-replay-1")
     throw Error(where + "not a replay buffer file (format tag is not t2m-replay-1)");
   int64_t capacity, size, cursor, added, od, ad;
+  bool labels;
   try {
+    labels = m.value("expert_labels", false);
     capacity = m.at("capacity").get<int64_t>();
     size = m.at("size").get<int64_t>();
     cursor = m.at("cursor").get<int64_t>();
@@ -173,10 +197,13 @@ ReplayBuffer ReplayBuffer::load(const std::string& path) {
   finite(obs, "obs");
   finite(act, "action");
   finite(nobs, "next_obs");
+  const Tensor* exp = labels ? &ck.expect("expert_action", {size, ad}, DType::f32) : nullptr;
+  if (exp) finite(*exp, "expert_action");
   for (int64_t i = 0; i < size; ++i)
     if (nd.data<float>()[i] != 0.0f && nd.data<float>()[i] != 1.0f)
       throw Error(where + "not_done[" + num(i) + "] is not 0 or 1");
-  ReplayBuffer b(capacity, (int)od, (int)ad);
+  ReplayBuffer b(capacity, (int)od, (int)ad, labels);
+  if (exp) b.expert_action_.narrow(0, 0, size).copy_(*exp);
   b.obs_.narrow(0, 0, size).copy_(obs);
   b.action_.narrow(0, 0, size).copy_(act);
   b.next_obs_.narrow(0, 0, size).copy_(nobs);

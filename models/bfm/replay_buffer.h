@@ -2,6 +2,8 @@
 //   obs [D], action [A], next_obs [D], not_done (1 = s' continues the episode, 0 = terminal), plus where the
 //   transition came from: clip index and frame index of the reference motion (-1 when none), so z can be
 //   inferred from the reference window that the transition was tracking (Eq 2).
+// Optional expert labels (with_expert_labels): per row also the action the expert tracker would take in that
+// state (models/bfm/collect.h), the behaviour-cloning target for states the policy visited (DAgger).
 // Once full, new rows overwrite the oldest (ring cursor). Sampling is uniform over the rows held, with indices
 // drawn from a t2m::Generator (Philox: the same seed and state give the same batch for any thread count).
 //
@@ -12,7 +14,8 @@
 //
 // Storage is preallocated in the constructor (Tensors [capacity, ...]); add() and sample_into() allocate nothing.
 // File: nn::Checkpoint with tensors obs, action, next_obs [size, D|A] f32, not_done [size] f32, clip, frame [size]
-// i64 and meta {"format": "t2m-replay-1", "capacity", "size", "cursor", "obs_dim", "action_dim", "added"}.
+// i64, expert_action [size, A] f32 when labelled, and meta {"format": "t2m-replay-1", "capacity", "size", "cursor",
+// "obs_dim", "action_dim", "added", "expert_labels"} ("expert_labels" absent = false).
 // Errors (t2m::Error, "replay buffer: ..." / "replay buffer PATH: ..."): capacity < 1 or dims < 1; a sample from an
 // empty buffer or n < 1; a non-finite value in add(); on load: a missing/corrupt file, wrong format tag, sizes that
 // do not agree (size > capacity, cursor out of range, tensor shapes), non-finite values, not_done outside {0, 1}.
@@ -32,11 +35,12 @@ struct ReplayBatch {
   Tensor not_done;  // [n, 1] f32
   Tensor clip;      // [n] i64
   Tensor frame;     // [n] i64
+  Tensor expert_action;  // [n, A] f32, filled (allocated on first use) only by a buffer with expert labels
 };
 
 class ReplayBuffer {
  public:
-  ReplayBuffer(int64_t capacity, int obs_dim, int action_dim);
+  ReplayBuffer(int64_t capacity, int obs_dim, int action_dim, bool with_expert_labels = false);
   ReplayBuffer(ReplayBuffer&&) = default;
   ReplayBuffer& operator=(ReplayBuffer&&) = default;
   ReplayBuffer(const ReplayBuffer&) = delete;  // the storage tensors are handles: a copy would alias
@@ -48,9 +52,11 @@ class ReplayBuffer {
   int64_t added() const { return added_; }     // rows ever added (>= size once full)
   int obs_dim() const { return obs_dim_; }
   int action_dim() const { return action_dim_; }
+  bool has_expert_labels() const { return labels_; }
 
+  // expert_action [A]: required by a buffer with expert labels, refused (Error) by one without.
   void add(const float* obs, const float* action, const float* next_obs, float not_done, int64_t clip = -1,
-           int64_t frame = -1);
+           int64_t frame = -1, const float* expert_action = nullptr);
   void clear();
 
   // n rows drawn uniformly with replacement (one randint draw of n counters' worth from gen).
@@ -67,6 +73,7 @@ class ReplayBuffer {
   float not_done_at(int64_t i) const;
   int64_t clip_at(int64_t i) const;
   int64_t frame_at(int64_t i) const;
+  const float* expert_action_row(int64_t i) const;  // Error without expert labels
 
   void save(const std::string& path) const;
   static ReplayBuffer load(const std::string& path);
@@ -76,7 +83,8 @@ class ReplayBuffer {
   int64_t capacity_;
   int obs_dim_, action_dim_;
   int64_t size_ = 0, cursor_ = 0, added_ = 0;
-  Tensor obs_, action_, next_obs_, not_done_, clip_, frame_;
+  bool labels_ = false;
+  Tensor obs_, action_, next_obs_, not_done_, clip_, frame_, expert_action_;
 };
 
 // Allocates the tensors of a batch of n rows.

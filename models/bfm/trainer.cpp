@@ -42,6 +42,7 @@ json BfmTrainConfig::to_json() const {
           {"online_noise", online_noise},
           {"batch", batch},
           {"bc_batch", bc_batch},
+          {"dagger", dagger},
           {"z_track", z_track},
           {"z_goal", z_goal}};
 }
@@ -70,6 +71,7 @@ BfmTrainConfig BfmTrainConfig::from_json(const json& j) {
       else if (k == "online_noise") c.online_noise = v.get<double>();
       else if (k == "batch") c.batch = v.get<int>();
       else if (k == "bc_batch") c.bc_batch = v.get<int>();
+      else if (k == "dagger") c.dagger = v.get<bool>();
       else if (k == "z_track") c.z_track = v.get<double>();
       else if (k == "z_goal") c.z_goal = v.get<double>();
       else throw Error("bfm trainer: unknown config key '" + k + "'");
@@ -122,8 +124,9 @@ BfmTrainer::BfmTrainer(const BfmTrainConfig& cfg, std::shared_ptr<const sim::Hum
   ts_ = std::make_unique<nn::TrainState>(agent_->train_state(run));
   ts_->generator("data", gen_data_).generator("z", gen_z_).generator("agent", gen_agent_);
   ts_->generator("collect", gen_collect_);
-  online_ = std::make_unique<ReplayBuffer>(cfg_.online_capacity, cfg_.fb.obs_dim, cfg_.fb.action_dim);
+  online_ = std::make_unique<ReplayBuffer>(cfg_.online_capacity, cfg_.fb.obs_dim, cfg_.fb.action_dim, cfg_.dagger);
   CollectOptions co;
+  co.expert = expert_from_string(cfg_.seed_expert);
   co.envs = cfg_.envs;
   co.max_episode_steps = cfg_.max_episode_steps;
   co.window = cfg_.fb.track_window;
@@ -136,7 +139,8 @@ BfmTrainer::BfmTrainer(const BfmTrainConfig& cfg, std::shared_ptr<const sim::Hum
     if (!of.empty()) {
       if (!fs::exists(dir_ + "/" + of)) throw Error("bfm trainer: online buffer " + dir_ + "/" + of + " is missing");
       ReplayBuffer b = ReplayBuffer::load(dir_ + "/" + of);
-      if (b.capacity() != cfg_.online_capacity || b.added() != added || b.obs_dim() != cfg_.fb.obs_dim)
+      if (b.capacity() != cfg_.online_capacity || b.added() != added || b.obs_dim() != cfg_.fb.obs_dim ||
+          b.has_expert_labels() != cfg_.dagger)
         throw Error("bfm trainer: online buffer " + of + " does not match the state (rows added " +
                     std::to_string(b.added()) + " vs " + std::to_string(added) + ")");
       *online_ = std::move(b);
@@ -150,7 +154,7 @@ BfmTrainer::~BfmTrainer() = default;
 
 void BfmTrainer::prepare_seed(const std::function<void(int64_t, int64_t)>& on_progress) {
   const json id = {{"seed", cfg_.seed},   {"ref_clips", cfg_.ref_clips}, {"transitions", cfg_.seed_transitions},
-                   {"noise", cfg_.seed_noise}, {"expert", cfg_.seed_expert}, {"envs", cfg_.envs}, {"max_episode_steps", cfg_.max_episode_steps},
+                   {"noise", cfg_.seed_noise}, {"expert", cfg_.seed_expert}, {"labels", cfg_.dagger}, {"envs", cfg_.envs}, {"max_episode_steps", cfg_.max_episode_steps},
                    {"ref_names_frames", refs_.total_frames()}};
   const std::string id_path = dir_ + "/seed_buffer.json";
   if (fs::exists(seed_path()) && fs::exists(id_path)) {
@@ -164,14 +168,14 @@ void BfmTrainer::prepare_seed(const std::function<void(int64_t, int64_t)>& on_pr
     if (have == id) {
       seed_ = std::make_unique<ReplayBuffer>(ReplayBuffer::load(seed_path()));
       if (seed_->size() != cfg_.seed_transitions || seed_->obs_dim() != cfg_.fb.obs_dim ||
-          seed_->action_dim() != cfg_.fb.action_dim)
+          seed_->action_dim() != cfg_.fb.action_dim || seed_->has_expert_labels() != cfg_.dagger)
         throw Error("bfm trainer: seed buffer " + seed_path() + " does not match its description");
       return;
     }
   }
   if (resumed_) throw Error("bfm trainer: resuming, but the seed buffer " + seed_path() +
                             " is missing or was made with another config");
-  seed_ = std::make_unique<ReplayBuffer>(cfg_.seed_transitions, cfg_.fb.obs_dim, cfg_.fb.action_dim);
+  seed_ = std::make_unique<ReplayBuffer>(cfg_.seed_transitions, cfg_.fb.obs_dim, cfg_.fb.action_dim, cfg_.dagger);
   CollectOptions co = collector_->options();
   co.action_noise = cfg_.seed_noise;
   co.expert = expert_from_string(cfg_.seed_expert);
@@ -231,12 +235,23 @@ BfmStepStats BfmTrainer::train_step() {
     ag::NoGradGuard ng;
     fb.z = sample_training_z(B, ZMix{cfg_.z_track, cfg_.z_goal}, refs_, L, fb.next_obs, enc, cfg_.fb.z_dim, gen_z_);
     if (cfg_.bc_batch > 0) {
-      ensure(bc_batch_, cfg_.bc_batch);
-      seed_->sample_into(cfg_.bc_batch, gen_data_, bc_batch_);
+      // BC rows: seed rows, plus (DAgger) the policy's own online states relabelled by the expert.
+      const int64_t n_bc_on = cfg_.dagger && online_->size() >= cfg_.bc_batch ? cfg_.bc_batch / 2 : 0;
+      const int64_t n_bc_seed = cfg_.bc_batch - n_bc_on;
+      ensure(bc_batch_, n_bc_seed);
+      seed_->sample_into(n_bc_seed, gen_data_, bc_batch_);
+      Tensor clip = bc_batch_.clip, frame = bc_batch_.frame;
       fb.bc_obs = bc_batch_.obs;
-      fb.bc_action = bc_batch_.action;
-      fb.bc_z = window_latents(refs_, bc_batch_.clip.data<int64_t>(), bc_batch_.frame.data<int64_t>(), cfg_.bc_batch,
-                               L, enc);
+      fb.bc_action = cfg_.dagger ? bc_batch_.expert_action : bc_batch_.action;
+      if (n_bc_on > 0) {
+        ensure(bc_online_batch_, n_bc_on);
+        online_->sample_into(n_bc_on, gen_data_, bc_online_batch_);
+        fb.bc_obs = concat({fb.bc_obs, bc_online_batch_.obs}, 0);
+        fb.bc_action = concat({fb.bc_action, bc_online_batch_.expert_action}, 0);
+        clip = concat({clip, bc_online_batch_.clip}, 0);
+        frame = concat({frame, bc_online_batch_.frame}, 0);
+      }
+      fb.bc_z = window_latents(refs_, clip.data<int64_t>(), frame.data<int64_t>(), cfg_.bc_batch, L, enc);
     }
   }
   out.fb = agent_->update(fb, gen_agent_);

@@ -14,7 +14,8 @@
 //   2. FB batch: batch rows, a fraction online_fraction from the online buffer once it holds >= batch rows, the
 //      rest from the seed buffer ("data" gen);
 //   3. z: sample_training_z with (z_track, z_goal), the batch's next_obs for goals ("z" gen);
-//   4. BC batch: bc_batch seed rows (obs, action) with bc_z = Eq 2 on the row's own reference window ("data");
+//   4. BC batch: bc_batch rows with bc_z = Eq 2 on the row's own reference window ("data"): seed rows (obs, action),
+//      or with dagger (obs, expert label), half of them from the online buffer once it holds >= bc_batch rows;
 //   5. FbAgent::update(batch, "agent" gen).
 // Files in dir: state.t2mckpt (nn::TrainState of the agent + generators + counters; atomic), online-STEP.t2mckpt
 // (the online buffer saved with that state; older ones are removed after the state is written), seed_buffer.t2mckpt.
@@ -53,6 +54,8 @@ struct BfmTrainConfig {
   double online_noise = 0.2;
   int batch = 256;
   int bc_batch = 128;               // 0: no behaviour cloning
+  bool dagger = true;               // BC targets = the expert's labels; half the BC rows from the policy's own
+                                    // online states, relabelled by the expert (DAgger); false: seed actions only
   double z_track = 0.5, z_goal = 0.2;
 
   nlohmann::json to_json() const;
@@ -97,7 +100,7 @@ class BfmTrainer {
   std::unique_ptr<ReplayBuffer> seed_, online_;
   std::unique_ptr<TrackingCollector> collector_;
   bool resumed_ = false;
-  ReplayBatch seed_batch_, online_batch_, bc_batch_;
+  ReplayBatch seed_batch_, online_batch_, bc_batch_, bc_online_batch_;
 };
 
 // The encoder / policy callbacks of collect.h bound to an agent.
