@@ -152,7 +152,9 @@ void balance_targets(const Env& env, const BalanceFrame& f, const BalanceOptions
           const double r[3] = {c[0] - p[0], c[1] - p[1], c[2] - p[2]};
           double rxF[3];
           mju_cross(rxF, r, F);
-          const double tau = -(a[0] * (rxF[0] + T[0]) + a[1] * (rxF[1] + T[1]) + a[2] * (rxF[2] + T[2]));
+          const double st = opt.torque_at_hips_only && j != kUpperLegL && j != kUpperLegR ? 0.0 : 1.0;
+          const double tau =
+              -(a[0] * (rxF[0] + st * T[0]) + a[1] * (rxF[1] + st * T[1]) + a[2] * (rxF[2] + st * T[2]));
           // the actuator of this hinge: hinges and actuators share the order (k = 3 (j - 1) + i)
           const int k = 3 * (j - 1) + (jn - m->body_jntadr[b]);
           const double kp = m->actuator_gainprm[mjNGAIN * k];

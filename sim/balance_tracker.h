@@ -8,6 +8,7 @@
 //   F = M (kp_c (c_ref - c) + kd_c (v_ref - v))           horizontal centre-of-mass feedback (clamped to max_force)
 //   T = kp_o log(R_ref R^T) + kd_o (w_ref - w)             root (pelvis) orientation feedback, world frame
 //   tau_i = -a_i . ((c - p_i) x F_leg + T_leg)              hinge i of a stance leg (hip, knee, ankle); axis a_i at p_i
+//                                                           (T only at the hips with torque_at_hips_only)
 //   target_i += clamp(tau_i / kp_i, +-max_offset)           position actuators: force = kp (target - q)
 // (F, T) are split equally over the legs whose foot or toes touch the floor; no stance leg = plain PD.
 // c, v: whole-body centre of mass and its velocity; R, w: root orientation and angular velocity (world).
@@ -29,6 +30,8 @@ struct BalanceOptions {
   double root_kd = 30.0;     // N m s / rad
   double max_force = 600.0;  // N, horizontal virtual force
   double max_offset = 0.5;   // rad, per hinge target offset
+  bool torque_at_hips_only = false;  // T through the stance hips only (SIMBICON-style); val 29.1 % vs 26.5 %, not
+                                     // the default yet (the shipped BFM's teacher used false)
 };
 
 // One reference frame as the controller reads it (pointers into a trajectory and its BalanceReference).

@@ -341,6 +341,7 @@ void add_sim_commands(CLI::App& app) {
   p->add_option("--root-kp", pd.bo.root_kp, "balance: root orientation stiffness, N m/rad")->capture_default_str();
   p->add_option("--root-kd", pd.bo.root_kd, "balance: root orientation damping, N m s/rad")->capture_default_str();
   p->add_option("--max-force", pd.bo.max_force, "balance: horizontal virtual force cap, N")->capture_default_str();
+  p->add_flag("--torque-at-hips-only", pd.bo.torque_at_hips_only, "balance: root torque through the stance hips only");
   p->add_option("--export-dir", pd.export_dir, "write the simulated motion of every clip here (NAME.bvh and NAME.qpos.json)");
   p->callback([] { run_track_pd(pd); });
 
