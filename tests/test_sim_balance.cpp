@@ -130,3 +130,35 @@ TEST(SimBalance, KeepsStandingWherePdTipsOver) {
   EXPECT_FALSE(bal.fell);
   EXPECT_LT(bal.root_drift_m, 0.2);
 }
+
+TEST(SimBalance, TorqueAtHipsOnlyLeavesKneesAndAnklesAlone) {
+  // Orientation feedback only (no force): a reference pitched 0.1 rad forward. With torque_at_hips_only the knee and
+  // ankle targets stay the PD targets and the hips move; without it the ankles move too.
+  const Humanoid& h = *humanoid();
+  Env env(humanoid());
+  const QposTrajectory here = standing(h, 3, humanoid_hips_height());
+  env.reset(here.qpos.data(), here.qvel.data(), nullptr);
+  QposTrajectory q = here;
+  for (int t = 0; t < 3; ++t) {  // root quaternion: rotation of 0.1 rad about y
+    double* p = q.qpos.data() + (size_t)t * q.nq + 3;
+    p[0] = std::cos(0.05), p[1] = 0, p[2] = std::sin(0.05), p[3] = 0;
+  }
+  trajectory_velocities(h, q);
+  const BalanceReference r = balance_reference(h, q);
+  const std::vector<double> pd = pd_targets(env.model(), q, 1);
+  BalanceOptions o;
+  o.com_kp = o.com_kd = 0;
+  for (bool hips_only : {true, false}) {
+    o.torque_at_hips_only = hips_only;
+    std::vector<double> c(env.action_dim());
+    balance_targets(env, r.frame(q, 1), o, c.data());
+    double hip = 0, knee_ankle = 0;
+    for (int j : {kUpperLegL, kUpperLegR})
+      for (int i = 0; i < 3; ++i) hip += std::fabs(c[3 * (j - 1) + i] - pd[3 * (j - 1) + i]);
+    for (int j : {kLowerLegL, kLowerLegR, kFootL, kFootR})
+      for (int i = 0; i < 3; ++i) knee_ankle += std::fabs(c[3 * (j - 1) + i] - pd[3 * (j - 1) + i]);
+    EXPECT_GT(hip, 1e-3) << hips_only;
+    if (hips_only) EXPECT_EQ(knee_ankle, 0.0);
+    else EXPECT_GT(knee_ankle, 1e-3);
+  }
+}
