@@ -12,14 +12,6 @@
 namespace t2m::sim {
 namespace {
 
-void check_reference(const mjModel* m, const QposTrajectory& ref, const char* who) {
-  if (ref.nq != m->nq || ref.nv != m->nv || ref.qpos.size() != (size_t)ref.frames * m->nq ||
-      ref.qvel.size() != (size_t)ref.frames * m->nv || ref.frames < 1)
-    throw Error(std::string(who) + ": reference has " + std::to_string(ref.frames) + " frames, nq " +
-                std::to_string(ref.nq) + ", nv " + std::to_string(ref.nv) + " (model nq " + std::to_string(m->nq) +
-                ", nv " + std::to_string(m->nv) + ")");
-}
-
 // Whole-body centre-of-mass velocity from cvel ([angular; linear] at the subtree com of each body's root).
 void com_velocity(const mjModel* m, const mjData* d, double v[3]) {
   v[0] = v[1] = v[2] = 0;
@@ -48,7 +40,7 @@ int stance_leg_of(const Humanoid& h, int body) {
 
 BalanceReference balance_reference(const Humanoid& h, const QposTrajectory& ref) {
   const mjModel* m = h.model();
-  check_reference(m, ref, "balance_reference");
+  check_tracking_reference(m, ref, "balance_reference");
   if (!h.is_humanoid()) throw Error("balance_reference: the model is not the t2m humanoid");
   const int T = ref.frames, root = h.tracked_bodies()[0];
   BalanceReference r;
@@ -96,16 +88,8 @@ void balance_targets(const Env& env, const BalanceFrame& f, const BalanceOptions
   const mjModel* m = env.model();
   const mjData* d = env.data();
   const Humanoid& h = env.humanoid();
-  const int nu = m->nu;
-  // PD part: the reference angle plus velocity feed-forward (as sim/pd_tracker).
-  const double* qr = f.qpos;
-  const double* vr = f.qvel;
-  for (int k = 0; k < nu; ++k) {
-    const int jid = m->actuator_trnid[2 * k];
-    const double kp = m->actuator_gainprm[mjNGAIN * k];
-    const int dof = m->jnt_dofadr[jid];
-    ctrl[k] = qr[m->jnt_qposadr[jid]] + (kp > 0 ? m->dof_damping[dof] / kp : 0.0) * vr[dof];
-  }
+  // PD part: the reference angle plus velocity feed-forward (sim/pd_tracker's law), clamped at the end.
+  pd_target_angles(m, f.qpos, f.qvel, /*feedforward=*/true, ctrl);
   // Stance legs from the contacts.
   bool stance[2] = {false, false};
   for (int i = 0; i < d->ncon; ++i) {
@@ -163,16 +147,14 @@ void balance_targets(const Env& env, const BalanceFrame& f, const BalanceOptions
       }
     }
   }
-  for (int k = 0; k < nu; ++k)
-    if (m->actuator_ctrllimited[k])
-      ctrl[k] = std::clamp(ctrl[k], m->actuator_ctrlrange[2 * k], m->actuator_ctrlrange[2 * k + 1]);
+  clamp_to_ctrlrange(m, ctrl);
 }
 
 PdResult track_balance(Env& env, const QposTrajectory& ref, const BalanceOptions& opt, const PdOptions& pd) {
   const mjModel* m = env.model();
   const Humanoid& h = env.humanoid();
   if (!h.is_humanoid()) throw Error("track_balance: the env's model is not the t2m humanoid");
-  check_reference(m, ref, "track_balance");
+  check_tracking_reference(m, ref, "track_balance");
   const BalanceReference bref = balance_reference(h, ref);
   TrackingScorer score(h, ref, pd);
   std::vector<double> ctrl(m->nu);

@@ -14,23 +14,10 @@ PdResult track_pd(Env& env, const QposTrajectory& ref, const PdOptions& opt) {
   const mjModel* m = env.model();
   const Humanoid& h = env.humanoid();
   if (!h.is_humanoid()) throw Error("track_pd: the env's model is not the t2m humanoid");
-  if (ref.nq != m->nq || ref.nv != m->nv || ref.qpos.size() != (size_t)ref.frames * m->nq ||
-      ref.qvel.size() != (size_t)ref.frames * m->nv || ref.frames < 1)
-    throw Error("track_pd: reference has " + std::to_string(ref.frames) + " frames, nq " + std::to_string(ref.nq) +
-                ", nv " + std::to_string(ref.nv) + " (model nq " + std::to_string(m->nq) + ", nv " +
-                std::to_string(m->nv) + ")");
+  check_tracking_reference(m, ref, "track_pd");
   const int T = ref.frames, nu = m->nu;
   TrackingScorer score(h, ref, opt);
-  // Per actuator: the joint's qpos / dof address and the feed-forward factor kd / kp.
-  std::vector<int> qadr(nu), dadr(nu);
-  std::vector<double> ff(nu), ctrl(nu);
-  for (int k = 0; k < nu; ++k) {
-    const int jid = m->actuator_trnid[2 * k];
-    qadr[k] = m->jnt_qposadr[jid];
-    dadr[k] = m->jnt_dofadr[jid];
-    const double kp = m->actuator_gainprm[mjNGAIN * k];
-    ff[k] = (opt.velocity_feedforward && kp > 0) ? m->dof_damping[dadr[k]] / kp : 0.0;
-  }
+  std::vector<double> ctrl(nu);
   QposTrajectory sim;
   sim.frames = T;
   sim.fps = ref.fps;
@@ -42,14 +29,9 @@ PdResult track_pd(Env& env, const QposTrajectory& ref, const PdOptions& opt) {
   const mjData* d = env.data();
   for (int t = 0; t < T; ++t) {
     if (t > 0) {
-      const double* qr = ref.qpos.data() + (size_t)t * m->nq;
-      const double* vr = ref.qvel.data() + (size_t)t * m->nv;
-      for (int k = 0; k < nu; ++k) {
-        double c = qr[qadr[k]] + ff[k] * vr[dadr[k]];
-        if (m->actuator_ctrllimited[k])
-          c = std::clamp(c, m->actuator_ctrlrange[2 * k], m->actuator_ctrlrange[2 * k + 1]);
-        ctrl[k] = c;
-      }
+      pd_target_angles(m, ref.qpos.data() + (size_t)t * m->nq, ref.qvel.data() + (size_t)t * m->nv,
+                       opt.velocity_feedforward, ctrl.data());
+      clamp_to_ctrlrange(m, ctrl.data());
       env.step_targets(ctrl.data(), nullptr);
     }
     std::copy(d->qpos, d->qpos + m->nq, sim.qpos.begin() + (size_t)t * m->nq);
@@ -59,6 +41,30 @@ PdResult track_pd(Env& env, const QposTrajectory& ref, const PdOptions& opt) {
   PdResult r = score.result();
   r.simulated = std::move(sim);
   return r;
+}
+
+void pd_target_angles(const mjModel* m, const double* qpos_ref, const double* qvel_ref, bool feedforward,
+                      double* ctrl) {
+  for (int k = 0; k < m->nu; ++k) {
+    const int jid = m->actuator_trnid[2 * k], dof = m->jnt_dofadr[jid];
+    const double kp = m->actuator_gainprm[mjNGAIN * k];
+    const double ff = (feedforward && kp > 0) ? m->dof_damping[dof] / kp : 0.0;
+    ctrl[k] = qpos_ref[m->jnt_qposadr[jid]] + ff * qvel_ref[dof];
+  }
+}
+
+void check_tracking_reference(const mjModel* m, const QposTrajectory& ref, const char* who) {
+  if (ref.nq != m->nq || ref.nv != m->nv || ref.qpos.size() != (size_t)ref.frames * m->nq ||
+      ref.qvel.size() != (size_t)ref.frames * m->nv || ref.frames < 1)
+    throw Error(std::string(who) + ": reference has " + std::to_string(ref.frames) + " frames, nq " +
+                std::to_string(ref.nq) + ", nv " + std::to_string(ref.nv) + " (model nq " + std::to_string(m->nq) +
+                ", nv " + std::to_string(m->nv) + ")");
+}
+
+void clamp_to_ctrlrange(const mjModel* m, double* ctrl) {
+  for (int k = 0; k < m->nu; ++k)
+    if (m->actuator_ctrllimited[k])
+      ctrl[k] = std::clamp(ctrl[k], m->actuator_ctrlrange[2 * k], m->actuator_ctrlrange[2 * k + 1]);
 }
 
 TrackingScorer::TrackingScorer(const Humanoid& h, const QposTrajectory& ref, const PdOptions& opt)

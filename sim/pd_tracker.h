@@ -41,6 +41,15 @@ struct PdResult {
 
 PdResult track_pd(Env& env, const QposTrajectory& ref, const PdOptions& opt = {});
 
+// The control law above for the step towards one reference frame (qpos_ref [nq], qvel_ref [nv]), shared by every
+// tracker built on it (sim/balance_tracker, models/bfm/collect): ctrl[k] = qref_k + (kd_k / kp_k) qdref_k (without
+// the second term when !feedforward), NOT clamped; clamp_to_ctrlrange clamps ctrl [nu] to the actuator ranges.
+void pd_target_angles(const mjModel* m, const double* qpos_ref, const double* qvel_ref, bool feedforward,
+                      double* ctrl);
+void clamp_to_ctrlrange(const mjModel* m, double* ctrl);
+// Throws t2m::Error ("WHO: reference has ...") unless ref has >= 1 frame and qpos / qvel sizes of the model.
+void check_tracking_reference(const mjModel* m, const QposTrajectory& ref, const char* who);
+
 // The metric code of track_pd for any controller (the BFM tracker uses it too): after the env holds the simulated
 // state of frame t (t = 0, 1, ... in order; frame 0 = the start state), call add_frame(env); result() gives the
 // metric fields of a PdResult (frames = frames added; simulated and assist_force left empty). Throws t2m::Error on

@@ -79,21 +79,11 @@ TrackingCollector::TrackingCollector(std::shared_ptr<const sim::Humanoid> h, con
   obs_.resize((size_t)N * D);
   next_obs_.resize((size_t)N * D);
   actions_.resize((size_t)N * A);
-  qadr_.resize(A);
-  dadr_.resize(A);
-  ff_.resize(A);
   ctrl_.resize((size_t)N * A);
   labels_.resize((size_t)N * A);
   if (opt.expert == Expert::balance) {
     balance_ref_.resize(refs.clips());
     for (int c = 0; c < refs.clips(); ++c) balance_ref_[c] = sim::balance_reference(*h_, refs.trajectory(c));
-  }
-  for (int k = 0; k < A; ++k) {  // sim/pd_tracker's control law: target = qref + (kd / kp) qdref
-    const int jid = m->actuator_trnid[2 * k];
-    qadr_[k] = m->jnt_qposadr[jid];
-    dadr_[k] = m->jnt_dofadr[jid];
-    const double kp = m->actuator_gainprm[mjNGAIN * k];
-    ff_[k] = kp > 0 ? m->dof_damping[dadr_[k]] / kp : 0.0;
   }
 }
 
@@ -126,11 +116,8 @@ void TrackingCollector::expert_labels() {
     if (opt_.expert == Expert::balance) {
       sim::balance_targets(env, balance_ref_[c].frame(qr, vr, t), opt_.balance, ctrl);
     } else {
-      for (int k = 0; k < A; ++k) {
-        double v = qr[qadr_[k]] + ff_[k] * vr[dadr_[k]];
-        if (m->actuator_ctrllimited[k]) v = std::clamp(v, m->actuator_ctrlrange[2 * k], m->actuator_ctrlrange[2 * k + 1]);
-        ctrl[k] = v;
-      }
+      sim::pd_target_angles(m, qr, vr, /*feedforward=*/true, ctrl);
+      sim::clamp_to_ctrlrange(m, ctrl);
     }
     for (int k = 0; k < A; ++k)
       labels_[(size_t)e * A + k] = (float)std::clamp(env.ctrl_to_action(k, ctrl[k]), -1.0, 1.0);

@@ -103,8 +103,7 @@ class TrackingCollector {
   std::vector<int> start_clip_;     // their clip
   std::vector<EnvState> st_;
   std::vector<float> obs_, next_obs_, actions_;  // [N, D], [N, D], [N, A]
-  std::vector<int> qadr_, dadr_;
-  std::vector<double> ff_, ctrl_;  // ctrl_ [N, A]
+  std::vector<double> ctrl_;       // [N, A]
   std::vector<float> labels_;      // [N, A]
   std::vector<sim::BalanceReference> balance_ref_;  // per clip (Expert::balance)
 };
