@@ -12,8 +12,9 @@
 namespace t2m::sim {
 namespace {
 
-// Whole-body centre-of-mass velocity from cvel ([angular; linear] at the subtree com of each body's root).
-void com_velocity(const mjModel* m, const mjData* d, double v[3]) {
+// Whole-body centre-of-mass velocity from cvel ([angular; linear] at the subtree com of each body's root); returns
+// the total mass it weighted by.
+double com_velocity(const mjModel* m, const mjData* d, double v[3]) {
   v[0] = v[1] = v[2] = 0;
   double mass = 0;
   for (int b = 1; b < m->nbody; ++b) {
@@ -26,6 +27,7 @@ void com_velocity(const mjModel* m, const mjData* d, double v[3]) {
     mass += m->body_mass[b];
   }
   for (int i = 0; i < 3; ++i) v[i] /= mass;
+  return mass;
 }
 
 // 0 = left leg, 1 = right leg, -1 = not a foot / toes body.
@@ -101,10 +103,9 @@ void balance_targets(const Env& env, const BalanceFrame& f, const BalanceOptions
   const int n_stance = (int)stance[0] + (int)stance[1];
   if (n_stance > 0) {
     const int root = h.tracked_bodies()[0];
-    const double mass = model_total_mass(m);
     const double* c = d->subtree_com + 3 * root;
     double v[3];
-    com_velocity(m, d, v);
+    const double mass = com_velocity(m, d, v);
     // Virtual force on the centre of mass (horizontal).
     double F[3] = {0, 0, 0};
     for (int i = 0; i < 2; ++i)

@@ -71,15 +71,16 @@ double flat_sole_hips_height() {
 double toes_sole_depth(int toes) {
   return std::min(kToeSoleBelowJoint, flat_sole_hips_height() + rest_joint_pos(toes)[2]);
 }
-// Height (relative to the body origin) of a body-frame point (x, z) after the sole pitch about y.
-double pitched_z(double x, double z, double pitch) { return -std::sin(pitch) * x + std::cos(pitch) * z; }
+// A body-frame point after rotating it about the body origin by `pitch` about y (toe down for pitch > 0).
+V3 pitched(V3 p, double pitch) {
+  const double cs = std::cos(pitch), sn = std::sin(pitch);
+  return {cs * p.x + sn * p.z, p.y, -sn * p.x + cs * p.z};
+}
 
 // Box with half sizes `half`, centred at c after rotating the body-frame box about the body origin by `pitch`
 // about y (toe down for pitch > 0).
 std::string sole_box(const std::string& name, V3 c, V3 half, double pitch) {
-  const double cs = std::cos(pitch), sn = std::sin(pitch);
-  const V3 rc{cs * c.x + sn * c.z, c.y, -sn * c.x + cs * c.z};
-  return "<geom name=\"" + name + "\" type=\"box\" pos=\"" + vec(rc) + "\" size=\"" + vec(half) + "\" euler=\"0 " +
+  return "<geom name=\"" + name + "\" type=\"box\" pos=\"" + vec(pitched(c, pitch)) + "\" size=\"" + vec(half) + "\" euler=\"0 " +
          num(pitch) + " 0\"/>";
 }
 
@@ -168,10 +169,10 @@ double humanoid_hips_height() {
     const double tx = rest_joint_pos(toes)[0] - rest_joint_pos(foot)[0];
     const double fp = sole_pitch(kFootSolePitchDeg), tp = sole_pitch(kToesSolePitchDeg);
     for (double x : {kHeel, tx})
-      for (double z : {kFootTop, -kSoleBelowAnkle}) lowest = std::min(lowest, rest_joint_pos(foot)[2] + pitched_z(x, z, fp));
+      for (double z : {kFootTop, -kSoleBelowAnkle}) lowest = std::min(lowest, rest_joint_pos(foot)[2] + pitched({x, 0, z}, fp).z);
     for (double x : {0.0, kToesLength})
       for (double z : {kToesTop, -toes_sole_depth(toes)})
-        lowest = std::min(lowest, rest_joint_pos(toes)[2] + pitched_z(x, z, tp));
+        lowest = std::min(lowest, rest_joint_pos(toes)[2] + pitched({x, 0, z}, tp).z);
   }
   return -lowest;
 }

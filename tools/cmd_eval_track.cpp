@@ -80,24 +80,18 @@ void run_eval_track(const EvalTrackArgs& a) {
                  {"bfm_seconds", bfm_s}};
   std::printf("eval track (%s split, %d clips, no assist):\n", a.split.c_str(), refs.clips());
   print_row("BFM", bs);
-  if (!a.no_pd) {
+  // A baseline controller's row: summary, wall time and per-clip rows under `key`.
+  const auto baseline_row = [&](const char* label, const std::string& key, auto track_all) {
     t0 = clock::now();
-    const auto pd_res = bfm::track_pd_all(h, refs);
-    const json ps = bfm::summarize_tracking(pd_res);
-    result["pd"] = ps;
-    result["pd_seconds"] = std::chrono::duration<double>(clock::now() - t0).count();
-    result["pd_clips"] = rows_json(refs, pd_res);
-    print_row("PD", ps);
-  }
-  if (a.expert) {
-    t0 = clock::now();
-    const auto ex_res = bfm::track_balance_all(h, refs);
-    const json es = bfm::summarize_tracking(ex_res);
-    result["balance_expert"] = es;
-    result["balance_expert_seconds"] = std::chrono::duration<double>(clock::now() - t0).count();
-    result["balance_expert_clips"] = rows_json(refs, ex_res);
-    print_row("PD+balance expert", es);
-  }
+    const auto res = track_all();
+    const json s = bfm::summarize_tracking(res);
+    result[key] = s;
+    result[key + "_seconds"] = std::chrono::duration<double>(clock::now() - t0).count();
+    result[key + "_clips"] = rows_json(refs, res);
+    print_row(label, s);
+  };
+  if (!a.no_pd) baseline_row("PD", "pd", [&] { return bfm::track_pd_all(h, refs); });
+  if (a.expert) baseline_row("PD+balance expert", "balance_expert", [&] { return bfm::track_balance_all(h, refs); });
   const std::vector<double> kl = bfm::window_action_kl(*agent, refs, a.kl_window);
   double kl_mean = 0;
   for (double k : kl) kl_mean += k;

@@ -177,8 +177,7 @@ void BfmTrainer::prepare_seed(const std::function<void(int64_t, int64_t)>& on_pr
                             " is missing or was made with another config");
   seed_ = std::make_unique<ReplayBuffer>(cfg_.seed_transitions, cfg_.fb.obs_dim, cfg_.fb.action_dim, cfg_.dagger);
   CollectOptions co = collector_->options();
-  co.action_noise = cfg_.seed_noise;
-  co.expert = expert_from_string(cfg_.seed_expert);
+  co.action_noise = cfg_.seed_noise;  // the expert is already the run's (collector_'s options)
   TrackingCollector expert(h_, refs_, co);
   Generator g(gen_seed_.seed());  // always from the start: the seed buffer is a pure function of the config
   const int64_t chunk = 8192;
