@@ -248,6 +248,38 @@ TEST(BfmRefs, ClipIndexingAndTrajectories) {
   EXPECT_THROW(bad.add(*humanoid(), "short", swaying(*humanoid(), 1, 0.0)), Error);
 }
 
+TEST(BfmRefs, StaticHoldsAreStillPosesOfQpos0AndClipStarts) {
+  RefMotions r = toy_refs();
+  append_static_holds(r, r, *humanoid(), spread_indices(2, 2), 7);
+  ASSERT_EQ(r.clips(), 5);  // 2 clips + qpos0 + the first frames of both clips
+  EXPECT_EQ(r.names[2], "hold:qpos0");
+  EXPECT_EQ(r.names[3], "hold:a");
+  EXPECT_EQ(r.names[4], "hold:b");
+  EXPECT_EQ(r.total_frames(), 32 + 3 * 7);
+  const int nq = r.nq, nv = r.nv, D = r.obs_dim;
+  for (int t = 0; t < 7; ++t) {
+    for (int k = 0; k < nq; ++k) {
+      EXPECT_EQ(r.qpos_at(2, t)[k], humanoid()->model()->qpos0[k]);
+      EXPECT_EQ(r.qpos_at(4, t)[k], r.qpos_at(1, 0)[k]);
+    }
+    for (int k = 0; k < nv; ++k) EXPECT_EQ(r.qvel_at(3, t)[k], 0.0);
+    for (int k = 0; k < D; ++k) EXPECT_EQ(r.obs_at(3, t)[k], r.obs_at(3, 0)[k]);  // a still state every frame
+  }
+  // The first clip's start pose differs from its later frames (it sways); the hold keeps frame 0.
+  EXPECT_NE(r.qpos_at(0, 5)[humanoid()->hinge_qpos(0)], r.qpos_at(3, 5)[humanoid()->hinge_qpos(0)]);
+  RefMotions only;  // holds into another set: the poses of the source's clips
+  append_static_holds(only, toy_refs(), *humanoid(), spread_indices(2, 1), 3);
+  ASSERT_EQ(only.clips(), 2);
+  EXPECT_EQ(only.names[1], "hold:a");
+  EXPECT_EQ(only.qpos_at(1, 2)[humanoid()->hinge_qpos(0)], r.qpos_at(0, 0)[humanoid()->hinge_qpos(0)]);
+  EXPECT_THROW(append_static_holds(r, r, *humanoid(), {-1}, 7), Error);
+  EXPECT_THROW(append_static_holds(r, r, *humanoid(), {5}, 7), Error);
+  EXPECT_THROW(append_static_holds(r, r, *humanoid(), {0}, 1), Error);
+  EXPECT_EQ(spread_indices(10, 4), (std::vector<int>{0, 2, 5, 7}));
+  EXPECT_EQ(spread_indices(3, 5), (std::vector<int>{0, 1, 2}));
+  EXPECT_TRUE(spread_indices(0, 5).empty());
+}
+
 TEST(BfmCollect, SeedDataShapesRangeAndDeterminism) {
   const RefMotions refs = toy_refs();
   CollectOptions o;

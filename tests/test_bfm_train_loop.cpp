@@ -281,3 +281,29 @@ TEST(BfmTrackEval, UsesThePdScorerOnEveryFrame) {
   const auto kl_same = window_action_kl(agent, r, 3);  // z_hat = z
   EXPECT_NEAR(kl_same[0], 0.0, 1e-9);
 }
+
+TEST(BfmTrackEval, HoldableStartClipsKeepsStandingPosesOnly) {
+  const sim::Humanoid& h = *humanoid();
+  const int nq = h.model()->nq, r0 = h.root_qpos();
+  auto still = [&](double lean) {  // qpos0 leaning forward by `lean` rad about the x axis, 3 frames
+    std::vector<double> p(h.model()->qpos0, h.model()->qpos0 + nq);
+    const double q[4] = {std::cos(lean / 2), std::sin(lean / 2), 0, 0};
+    double out[4];
+    mju_mulQuat(out, q, p.data() + r0 + 3);
+    std::copy(out, out + 4, p.begin() + r0 + 3);
+    sim::QposTrajectory t;
+    t.frames = 3;
+    t.nq = nq;
+    t.nv = h.model()->nv;
+    for (int f = 0; f < 3; ++f) t.qpos.insert(t.qpos.end(), p.begin(), p.end());
+    t.qvel.assign((size_t)3 * t.nv, 0.0);
+    return t;
+  };
+  RefMotions r;
+  r.add(h, "leaning", still(0.6));
+  r.add(h, "standing", still(0.0));
+  r.add(h, "swaying", swaying(h, 14, 0.05));
+  const std::vector<int> ok = holdable_start_clips(humanoid(), r, 60);  // 2 s still
+  EXPECT_EQ(ok, (std::vector<int>{1, 2}));
+  EXPECT_THROW(holdable_start_clips(humanoid(), r, 1), Error);
+}

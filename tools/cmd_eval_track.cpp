@@ -2,9 +2,13 @@
 // reference, roll out the policy mean) and the PD baseline side by side, with the same metrics
 // (sim::TrackingScorer), plus the Eq 21 action KL between the Eq 2 latent sequences at two window lengths.
 //   t2m eval track [--policy models/checkpoints/bfm_small.t2mckpt] [--split test] [--clips N] [--kl-window 4]
-//                  [--no-pd] [--threads T] [--out RESULT.json]
+//                  [--no-pd] [--expert] [--stand SECONDS] [--threads T] [--out RESULT.json]
 // --clips N: N clips spread evenly over the split (sorted by name, fixed stride), 0 = all.
+// --stand S: standing still instead of the clips: qpos0 and the first frame of every selected clip, each held
+// still for S seconds (bfm::append_static_holds; z = Eq 2 on a static reference = B(s) of the pose).
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -28,6 +32,7 @@ struct EvalTrackArgs {
   std::string policy = "models/checkpoints/bfm_small.t2mckpt";
   std::string manifest, split = "test", out;
   int clips = 0, threads = 0, kl_window = 4;
+  double stand_s = 0;
   bool no_pd = false;
   bool expert = false;
 };
@@ -65,20 +70,29 @@ void run_eval_track(const EvalTrackArgs& a) {
       a.manifest.empty() ? t2m::data::default_cache_dir() + "/bandai/manifest.json" : a.manifest;
   if (!fs::exists(mpath)) throw Error("eval track: no manifest at " + mpath + " (run `t2m data prepare`)");
   auto h = t2m::sim::Humanoid::create();
-  const bfm::RefMotions refs = bfm::load_ref_motions(*h, t2m::data::load_manifest(mpath), split, a.clips);
-  std::fprintf(stderr, "eval track: %d %s clips (%lld frames)\n", refs.clips(), a.split.c_str(),
+  if (!(a.stand_s >= 0) || a.stand_s > 120) throw Error("eval track: --stand must be in [0, 120] seconds");
+  bfm::RefMotions refs = bfm::load_ref_motions(*h, t2m::data::load_manifest(mpath), split, a.clips);
+  if (a.stand_s > 0) {
+    bfm::RefMotions holds;
+    bfm::append_static_holds(holds, refs, *h, bfm::spread_indices(refs.clips(), refs.clips()),
+                              std::max(2, (int)std::lround(a.stand_s * 30)));
+    refs = std::move(holds);
+  }
+  const std::string what = a.stand_s > 0 ? "standing-still references (" + std::to_string(a.stand_s) + " s)" : "clips";
+  std::fprintf(stderr, "eval track: %d %s %s (%lld frames)\n", refs.clips(), a.split.c_str(), what.c_str(),
                (long long)refs.total_frames());
   auto t0 = clock::now();
   const auto bfm_res = bfm::track_bfm(*agent, h, refs);
   const double bfm_s = std::chrono::duration<double>(clock::now() - t0).count();
   const json bs = bfm::summarize_tracking(bfm_res);
-  json result = {{"command", "eval track"},
+  json result = {{"command", a.stand_s > 0 ? "eval track --stand" : "eval track"},
                  {"data", "Bandai-Namco-Research-Motiondataset (CC BY-NC 4.0), split " + a.split},
                  {"policy", a.policy},
                  {"policy_info", info},
                  {"bfm", bs},
                  {"bfm_seconds", bfm_s}};
-  std::printf("eval track (%s split, %d clips, no assist):\n", a.split.c_str(), refs.clips());
+  if (a.stand_s > 0) result["stand_seconds"] = a.stand_s;
+  std::printf("eval track (%s split, %d %s, no assist):\n", a.split.c_str(), refs.clips(), what.c_str());
   print_row("BFM", bs);
   // A baseline controller's row: summary, wall time and per-clip rows under `key`.
   const auto baseline_row = [&](const char* label, const std::string& key, auto track_all) {
@@ -118,6 +132,9 @@ void add_eval_track(CLI::App& app) {
   c->add_option("--clips", a.clips, "evaluate N clips spread over the split (0 = all)")->capture_default_str();
   c->add_option("--kl-window", a.kl_window, "window L of z_hat for the Eq 21 action KL")->capture_default_str();
   c->add_flag("--no-pd", a.no_pd, "skip the PD baseline");
+  c->add_option("--stand", a.stand_s,
+                "standing still for SECONDS instead of the clips: qpos0 and each clip's first pose held still")
+      ->capture_default_str();
   c->add_flag("--expert", a.expert, "also run the balance-feedback expert the BFM's seed data comes from");
   c->add_option("--threads", a.threads, "threads (0 = default)");
   c->add_option("--out", a.out, "write the JSON result here (atomic)");

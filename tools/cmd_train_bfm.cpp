@@ -5,6 +5,7 @@
 // by the first invocation and read by later ones; flags given again must agree with it), the seed buffer, the
 // training state (resumed automatically), log.jsonl and loss.svg. Each invocation trains until --minutes or
 // --updates or the total is reached, saving atomically every --save-minutes and at the end. See docs/BFM.md.
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -17,6 +18,7 @@
 
 #include "models/bfm/policy_checkpoint.h"
 #include "models/bfm/ref_motions.h"
+#include "models/bfm/track_eval.h"
 #include "models/bfm/trainer.h"
 #include "models/data/dataset.h"
 #include "nn/checkpoint.h"
@@ -74,6 +76,7 @@ void run_train_bfm(const TrainBfmArgs& a, CLI::App* app) {
     const std::pair<const char*, std::function<void()>> flags[] = {
         {"--seed", [&] { f.seed = g.seed; }},
         {"--ref-clips", [&] { f.ref_clips = g.ref_clips; }},
+        {"--static-holds", [&] { f.static_holds = g.static_holds; }},
         {"--seed-transitions", [&] { f.seed_transitions = g.seed_transitions; }},
         {"--seed-expert", [&] { f.seed_expert = g.seed_expert; }},
         {"--bc-coef", [&] { f.fb.bc_coef = g.fb.bc_coef; }},
@@ -99,9 +102,22 @@ void run_train_bfm(const TrainBfmArgs& a, CLI::App* app) {
   const auto manifest = t2m::data::load_manifest(mpath);
   auto h = t2m::sim::Humanoid::create();
   auto t0 = clock::now();
-  const bfm::RefMotions refs = bfm::load_ref_motions(*h, manifest, t2m::data::Split::train, cfg.ref_clips);
+  bfm::RefMotions refs = bfm::load_ref_motions(*h, manifest, t2m::data::Split::train, cfg.ref_clips);
   std::fprintf(stderr, "train bfm: %d training clips (%lld frames) retargeted in %.1f s\n", refs.clips(),
                (long long)refs.total_frames(), std::chrono::duration<double>(clock::now() - t0).count());
+  if (cfg.static_holds > 0) {  // standing-still references: first poses the balance expert can hold, + qpos0
+    t0 = clock::now();
+    const int F = cfg.max_episode_steps + 1;
+    const std::vector<int> ok = bfm::holdable_start_clips(h, refs, F);
+    std::vector<int> chosen;
+    for (int i : bfm::spread_indices((int)ok.size(), cfg.static_holds)) chosen.push_back(ok[(size_t)i]);
+    bfm::append_static_holds(refs, refs, *h, chosen, F);
+    std::fprintf(stderr,
+                 "train bfm: the balance expert holds %zu of %d first poses still for %d frames; + %zu standing-still "
+                 "references (qpos0 and %zu of those; %lld frames in all) in %.1f s\n",
+                 ok.size(), refs.clips() - (int)chosen.size() - 1, F, chosen.size() + 1, chosen.size(),
+                 (long long)refs.total_frames(), std::chrono::duration<double>(clock::now() - t0).count());
+  }
 
   bfm::BfmTrainer tr(cfg, h, refs, dir);
   if (tr.resumed()) std::fprintf(stderr, "train bfm: resumed %s at update %lld\n", dir.c_str(), (long long)tr.step());
@@ -204,6 +220,9 @@ void add_train_bfm(CLI::App& app) {
               "BC on the seed actions only (default: expert labels, half on the policy's relabelled online states)");
   c->add_option("--bc-coef", cfg.fb.bc_coef, "behaviour-cloning weight of the actor loss")->capture_default_str();
   c->add_option("--ref-clips", cfg.ref_clips, "training clips used (0 = all)")->capture_default_str();
+  c->add_option("--static-holds", cfg.static_holds,
+                "standing-still references: qpos0 + N first poses of clips that the balance expert holds (0 = none)")
+      ->capture_default_str();
   c->add_option("--envs", cfg.envs, "parallel environments")->capture_default_str();
   c->add_option("--batch", cfg.batch, "FB batch")->capture_default_str();
   c->add_option("--bc-batch", cfg.bc_batch, "behaviour-cloning batch (0 = off)")->capture_default_str();

@@ -103,4 +103,35 @@ RefMotions load_ref_motions(const sim::Humanoid& h, const data::Manifest& manife
   return r;
 }
 
+void append_static_holds(RefMotions& dst, const RefMotions& src, const sim::Humanoid& h, const std::vector<int>& clips,
+                         int frames) {
+  if (frames < 2) throw Error("append_static_holds: frames must be >= 2, got " + std::to_string(frames));
+  const int nq = h.model()->nq, nv = h.model()->nv;
+  std::vector<std::string> names{"hold:qpos0"};
+  std::vector<double> poses(h.model()->qpos0, h.model()->qpos0 + nq);  // copied first: dst may be src
+  for (int c : clips) {
+    const double* p = src.qpos_at(c, 0);  // checks c
+    poses.insert(poses.end(), p, p + nq);
+    names.push_back("hold:" + src.names[(size_t)c]);
+  }
+  for (size_t i = 0; i < names.size(); ++i) {
+    sim::QposTrajectory q;
+    q.frames = frames;
+    q.nq = nq;
+    q.nv = nv;
+    for (int t = 0; t < frames; ++t) q.qpos.insert(q.qpos.end(), poses.begin() + i * nq, poses.begin() + (i + 1) * nq);
+    q.qvel.assign((size_t)frames * nv, 0.0);
+    dst.add(h, names[i], q);
+  }
+}
+
+std::vector<int> spread_indices(int n, int count) {
+  std::vector<int> out;
+  if (n <= 0 || count <= 0) return out;
+  if (count >= n) count = n;
+  const double stride = (double)n / count;
+  for (int i = 0; i < count; ++i) out.push_back((int)(i * stride));
+  return out;
+}
+
 }  // namespace t2m::bfm

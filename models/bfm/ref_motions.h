@@ -52,4 +52,16 @@ std::vector<const data::ClipInfo*> select_split_clips(const data::Manifest& mani
 RefMotions load_ref_motions(const sim::Humanoid& h, const data::Manifest& manifest, data::Split split,
                             int max_clips = 0);
 
+// Standing-still ("hold") references, appended to dst as clips named "hold:qpos0" and "hold:<clip>": the
+// humanoid's standing start qpos0 (where generation starts) and the first frame of each listed clip of src, each
+// held for `frames` frames with zero velocity. Real clips never stand still for long; these teach
+// (`t2m train bfm --static-holds`) and test (`t2m eval track --stand`) holding a pose, i.e. z = B(s) of a static
+// state. dst may be src.
+// Errors: a clip index out of range, frames < 2 (t2m::Error).
+void append_static_holds(RefMotions& dst, const RefMotions& src, const sim::Humanoid& h, const std::vector<int>& clips,
+                         int frames);
+
+// `count` of the indices 0..n-1 spread evenly (every k-th, k = n / count, real-valued); all of them when count >= n.
+std::vector<int> spread_indices(int n, int count);
+
 }  // namespace t2m::bfm

@@ -124,6 +124,27 @@ std::vector<sim::PdResult> track_balance_all(std::shared_ptr<const sim::Humanoid
                    [&](sim::Env& env, const sim::QposTrajectory& q) { return sim::track_balance(env, q, bal, opt); });
 }
 
+std::vector<int> holdable_start_clips(std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs, int frames,
+                                      const sim::BalanceOptions& bal) {
+  check_refs(nullptr, *h, refs);
+  if (frames < 2) throw Error("holdable_start_clips: frames must be >= 2, got " + std::to_string(frames));
+  const int N = refs.clips();
+  std::vector<char> ok(N, 0);
+#pragma omp parallel for schedule(dynamic)
+  for (int c = 0; c < N; ++c) {
+    sim::QposTrajectory q = refs.trajectory(c, 0, 1);  // the first pose, held still
+    q.frames = frames;
+    for (int t = 1; t < frames; ++t) q.qpos.insert(q.qpos.end(), q.qpos.begin(), q.qpos.begin() + q.nq);
+    q.qvel.assign((size_t)frames * q.nv, 0.0);
+    sim::Env env(h);
+    ok[c] = sim::track_balance(env, q, bal).success;
+  }
+  std::vector<int> out;
+  for (int c = 0; c < N; ++c)
+    if (ok[c]) out.push_back(c);
+  return out;
+}
+
 std::vector<double> window_action_kl(FbAgent& agent, const RefMotions& refs, int L_hat) {
   ag::NoGradGuard ng;
   std::vector<double> kl;

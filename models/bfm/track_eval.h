@@ -33,6 +33,10 @@ std::vector<sim::PdResult> track_pd_all(std::shared_ptr<const sim::Humanoid> h, 
                                         const sim::PdOptions& opt = {});
 std::vector<sim::PdResult> track_balance_all(std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs,
                                              const sim::BalanceOptions& bal = {}, const sim::PdOptions& opt = {});
+// Clips whose first pose, held still with zero velocity for `frames` frames, the balance expert keeps (tracking
+// success): the standing poses `t2m train bfm --static-holds` teaches (OpenMP over clips). Error: frames < 2.
+std::vector<int> holdable_start_clips(std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs, int frames,
+                                      const sim::BalanceOptions& bal = {});
 // Per-clip Eq 21 action KL between the Eq 2 latents with windows L_hat and the agent's track_window.
 std::vector<double> window_action_kl(FbAgent& agent, const RefMotions& refs, int L_hat);
 

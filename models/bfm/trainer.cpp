@@ -28,6 +28,7 @@ json BfmTrainConfig::to_json() const {
   return {{"fb", fb.to_json()},
           {"seed", seed},
           {"ref_clips", ref_clips},
+          {"static_holds", static_holds},
           {"seed_transitions", seed_transitions},
           {"seed_noise", seed_noise},
           {"seed_expert", seed_expert},
@@ -57,6 +58,7 @@ BfmTrainConfig BfmTrainConfig::from_json(const json& j) {
       if (k == "fb") c.fb = FbConfig::from_json(v);
       else if (k == "seed") c.seed = v.get<uint64_t>();
       else if (k == "ref_clips") c.ref_clips = v.get<int>();
+      else if (k == "static_holds") c.static_holds = v.get<int>();
       else if (k == "seed_transitions") c.seed_transitions = v.get<int64_t>();
       else if (k == "seed_noise") c.seed_noise = v.get<double>();
       else if (k == "seed_expert") c.seed_expert = v.get<std::string>();
@@ -94,6 +96,7 @@ void BfmTrainConfig::validate() const {
   if (!(seed_noise >= 0) || !(online_noise >= 0)) bad("noise must be >= 0");
   if (!(z_track >= 0 && z_goal >= 0 && z_track + z_goal <= 1)) bad("z_track, z_goal in [0, 1] with sum <= 1");
   if (ref_clips < 0) bad("ref_clips must be >= 0");
+  if (static_holds < 0) bad("static_holds must be >= 0");
   if (seed_expert != "pd" && seed_expert != "balance") bad("seed_expert must be 'pd' or 'balance'");
 }
 

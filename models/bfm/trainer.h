@@ -40,6 +40,9 @@ struct BfmTrainConfig {
   FbConfig fb;
   uint64_t seed = 0;
   int ref_clips = 300;              // training clips used as references (0 = all of the split)
+  int static_holds = 0;             // standing-still references the caller adds (append_static_holds): qpos0 +
+                                    // this many clip first poses the balance expert holds, max_episode_steps + 1
+                                    // frames each (tools/cmd_train_bfm.cpp)
   int64_t seed_transitions = 60000;  // ARCHITECTURE: 1.5-2M; ~220/s on the loaded 2-core machine (docs/BFM.md)
   double seed_noise = 0.1;          // expert action noise of the seed data
   std::string seed_expert = "balance";  // the seed data's tracker: "balance" (PD + balance feedback) or "pd"
