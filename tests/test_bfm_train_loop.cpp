@@ -291,13 +291,7 @@ TEST(BfmTrackEval, HoldableStartClipsKeepsStandingPosesOnly) {
     double out[4];
     mju_mulQuat(out, q, p.data() + r0 + 3);
     std::copy(out, out + 4, p.begin() + r0 + 3);
-    sim::QposTrajectory t;
-    t.frames = 3;
-    t.nq = nq;
-    t.nv = h.model()->nv;
-    for (int f = 0; f < 3; ++f) t.qpos.insert(t.qpos.end(), p.begin(), p.end());
-    t.qvel.assign((size_t)3 * t.nv, 0.0);
-    return t;
+    return still_trajectory(p.data(), nq, h.model()->nv, 3);
   };
   RefMotions r;
   r.add(h, "leaning", still(0.6));

@@ -114,15 +114,18 @@ void append_static_holds(RefMotions& dst, const RefMotions& src, const sim::Huma
     poses.insert(poses.end(), p, p + nq);
     names.push_back("hold:" + src.names[(size_t)c]);
   }
-  for (size_t i = 0; i < names.size(); ++i) {
-    sim::QposTrajectory q;
-    q.frames = frames;
-    q.nq = nq;
-    q.nv = nv;
-    for (int t = 0; t < frames; ++t) q.qpos.insert(q.qpos.end(), poses.begin() + i * nq, poses.begin() + (i + 1) * nq);
-    q.qvel.assign((size_t)frames * nv, 0.0);
-    dst.add(h, names[i], q);
-  }
+  for (size_t i = 0; i < names.size(); ++i) dst.add(h, names[i], still_trajectory(poses.data() + i * nq, nq, nv, frames));
+}
+
+sim::QposTrajectory still_trajectory(const double* qpos, int nq, int nv, int frames) {
+  if (frames < 1) throw Error("still_trajectory: frames must be >= 1, got " + std::to_string(frames));
+  sim::QposTrajectory q;
+  q.frames = frames;
+  q.nq = nq;
+  q.nv = nv;
+  for (int t = 0; t < frames; ++t) q.qpos.insert(q.qpos.end(), qpos, qpos + nq);
+  q.qvel.assign((size_t)frames * nv, 0.0);
+  return q;
 }
 
 std::vector<int> spread_indices(int n, int count) {

@@ -61,6 +61,9 @@ RefMotions load_ref_motions(const sim::Humanoid& h, const data::Manifest& manife
 void append_static_holds(RefMotions& dst, const RefMotions& src, const sim::Humanoid& h, const std::vector<int>& clips,
                          int frames);
 
+// One pose qpos [nq] held still for `frames` frames (zero velocity). Error: frames < 1.
+sim::QposTrajectory still_trajectory(const double* qpos, int nq, int nv, int frames);
+
 // `count` of the indices 0..n-1 spread evenly (every k-th, k = n / count, real-valued); all of them when count >= n.
 std::vector<int> spread_indices(int n, int count);
 

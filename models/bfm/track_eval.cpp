@@ -132,12 +132,8 @@ std::vector<int> holdable_start_clips(std::shared_ptr<const sim::Humanoid> h, co
   std::vector<char> ok(N, 0);
 #pragma omp parallel for schedule(dynamic)
   for (int c = 0; c < N; ++c) {
-    sim::QposTrajectory q = refs.trajectory(c, 0, 1);  // the first pose, held still
-    q.frames = frames;
-    for (int t = 1; t < frames; ++t) q.qpos.insert(q.qpos.end(), q.qpos.begin(), q.qpos.begin() + q.nq);
-    q.qvel.assign((size_t)frames * q.nv, 0.0);
     sim::Env env(h);
-    ok[c] = sim::track_balance(env, q, bal).success;
+    ok[c] = sim::track_balance(env, still_trajectory(refs.qpos_at(c, 0), refs.nq, refs.nv, frames), bal).success;
   }
   std::vector<int> out;
   for (int c = 0; c < N; ++c)
