@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <random>
 #include <string>
 #include <utility>
 
@@ -158,11 +159,17 @@ PdResult track_balance(Env& env, const QposTrajectory& ref, const BalanceOptions
   check_tracking_reference(m, ref, "track_balance");
   const BalanceReference bref = balance_reference(h, ref);
   TrackingScorer score(h, ref, pd);
+  if (!(opt.action_noise >= 0)) throw Error("track_balance: action_noise must be >= 0");
   std::vector<double> ctrl(m->nu);
+  std::mt19937_64 rng(opt.noise_seed);
+  std::normal_distribution<double> noise(0.0, 1.0);
   env.reset(ref.qpos.data(), ref.qvel.data(), nullptr);
   score.add_frame(env);
   for (int t = 1; t < ref.frames; ++t) {
     balance_targets(env, bref.frame(ref, t), opt, ctrl.data());
+    if (opt.action_noise > 0)
+      for (int k = 0; k < m->nu; ++k)
+        ctrl[k] = env.action_to_ctrl(k, std::clamp(env.ctrl_to_action(k, ctrl[k]) + opt.action_noise * noise(rng), -1.0, 1.0));
     env.step_targets(ctrl.data(), nullptr);
     score.add_frame(env);
   }

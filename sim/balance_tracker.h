@@ -14,6 +14,7 @@
 // c, v: whole-body centre of mass and its velocity; R, w: root orientation and angular velocity (world).
 // The controller is a function of (state, reference frame), so it can label any visited state (DAgger).
 #pragma once
+#include <cstdint>
 #include <vector>
 
 #include "sim/env.h"
@@ -32,6 +33,11 @@ struct BalanceOptions {
   double max_offset = 0.5;   // rad, per hinge target offset
   bool torque_at_hips_only = false;  // T through the stance hips only (SIMBICON-style); val 29.1 % vs 26.5 %, not
                                      // the default yet (the shipped BFM's teacher used false)
+  // track_balance only: Gaussian noise of this std added to every target in the policy's [-1, 1] action units
+  // (Env::ctrl_to_action) at every step, then clamped — how precisely a student must imitate the expert. Drawn
+  // from std::mt19937_64(noise_seed), so a clip's result does not depend on threads.
+  double action_noise = 0.0;
+  uint64_t noise_seed = 0;
 };
 
 // One reference frame as the controller reads it (pointers into a trajectory and its BalanceReference).

@@ -162,3 +162,25 @@ TEST(SimBalance, TorqueAtHipsOnlyLeavesKneesAndAnklesAlone) {
     else EXPECT_GT(knee_ankle, 1e-3);
   }
 }
+
+TEST(SimBalance, ActionNoiseIsSeededAndPerturbsTheExpert) {
+  // 2 s of standing: the noise changes the motion, the same seed repeats it bit for bit, another seed differs,
+  // noise 0 is the noiseless expert whatever the seed, and large noise breaks the stand the expert otherwise keeps.
+  const QposTrajectory q = standing(*humanoid(), 60, humanoid_hips_height());
+  Env env(humanoid());
+  const PdResult clean = track_balance(env, q);
+  BalanceOptions o;
+  o.noise_seed = 7;
+  EXPECT_EQ(track_balance(env, q, o).mpjpe_m, clean.mpjpe_m);
+  o.action_noise = 0.05;
+  const PdResult a = track_balance(env, q, o), b = track_balance(env, q, o);
+  EXPECT_EQ(a.mpjpe_m, b.mpjpe_m);
+  EXPECT_NE(a.mpjpe_m, clean.mpjpe_m);
+  o.noise_seed = 8;
+  EXPECT_NE(track_balance(env, q, o).mpjpe_m, a.mpjpe_m);
+  o.action_noise = 0.5;
+  EXPECT_TRUE(clean.success);
+  EXPECT_FALSE(track_balance(env, q, o).success);
+  o.action_noise = -1;
+  EXPECT_THROW(track_balance(env, q, o), t2m::Error);
+}

@@ -211,7 +211,9 @@ void run_track_pd(const PdArgs& a) {
     try {
       const sim::QposTrajectory ref = sim::retarget(*h, load_motion(clips[i].second));
       sim::Env env(h, sim::EnvOptions{.substeps = sim::kSubsteps, .assist_force = a.assist});
-      res[i] = a.balance ? sim::track_balance(env, ref, a.bo, po) : sim::track_pd(env, ref, po);
+      sim::BalanceOptions bo = a.bo;
+      bo.noise_seed = (uint64_t)i;  // per clip: independent of the thread schedule
+      res[i] = a.balance ? sim::track_balance(env, ref, bo, po) : sim::track_pd(env, ref, po);
       res[i].assist_force = a.assist;
       const auto& r = res[i];
       ok[i] = 1;
@@ -342,6 +344,10 @@ void add_sim_commands(CLI::App& app) {
   p->add_option("--root-kd", pd.bo.root_kd, "balance: root orientation damping, N m s/rad")->capture_default_str();
   p->add_option("--max-force", pd.bo.max_force, "balance: horizontal virtual force cap, N")->capture_default_str();
   p->add_flag("--torque-at-hips-only", pd.bo.torque_at_hips_only, "balance: root torque through the stance hips only");
+  p->add_option("--action-noise", pd.bo.action_noise,
+                "balance: Gaussian noise std added to every target in [-1, 1] action units (seed = clip index)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 2.0));
   p->add_option("--export-dir", pd.export_dir, "write the simulated motion of every clip here (NAME.bvh and NAME.qpos.json)");
   p->callback([] { run_track_pd(pd); });
 
