@@ -78,7 +78,9 @@ void run_eval_track(const EvalTrackArgs& a) {
                               std::max(2, (int)std::lround(a.stand_s * 30)));
     refs = std::move(holds);
   }
-  const std::string what = a.stand_s > 0 ? "standing-still references (" + std::to_string(a.stand_s) + " s)" : "clips";
+  char stand_label[64];
+  std::snprintf(stand_label, sizeof stand_label, "standing-still poses (%g s each)", a.stand_s);
+  const std::string what = a.stand_s > 0 ? stand_label : "clips";
   std::fprintf(stderr, "eval track: %d %s %s (%lld frames)\n", refs.clips(), a.split.c_str(), what.c_str(),
                (long long)refs.total_frames());
   auto t0 = clock::now();
