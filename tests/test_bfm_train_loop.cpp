@@ -301,3 +301,37 @@ TEST(BfmTrackEval, HoldableStartClipsKeepsStandingPosesOnly) {
   EXPECT_EQ(ok, (std::vector<int>{1, 2}));
   EXPECT_THROW(holdable_start_clips(humanoid(), r, 1), Error);
 }
+
+TEST(BfmTrackEval, ExpertImitationRmsIsTheRmsOfPolicyMinusExpertLabel) {
+  FbAgent agent(tiny_config().fb, 3);
+  const RefMotions& r = toy_refs();
+  const std::vector<double> rms = expert_imitation_rms(agent, humanoid(), r);
+  const int A = humanoid()->model()->nu;
+  ASSERT_EQ((int)rms.size(), A);
+  // Reference: one state at a time through the public pieces (Eq 2 latents, actor mean, expert targets).
+  std::vector<double> se(A, 0.0);
+  int n = 0;
+  sim::Env env(humanoid());
+  std::vector<double> ctrl(A);
+  for (int c = 0; c < r.clips(); ++c) {
+    const int T = r.frames(c);
+    Tensor s = Tensor::empty({T, r.obs_dim});
+    std::copy(r.obs_at(c, 0), r.obs_at(c, 0) + (size_t)T * r.obs_dim, s.data<float>());
+    const Tensor z = agent.infer_tracking_z(s).contiguous();
+    const sim::QposTrajectory q = r.trajectory(c);
+    const sim::BalanceReference bref = sim::balance_reference(*humanoid(), q);
+    for (int t = 0; t + 1 < T; ++t, ++n) {
+      const Tensor mu = agent.actor_mean(s.narrow(0, t, 1).contiguous(), z.narrow(0, t, 1).contiguous()).contiguous();
+      env.reset(r.qpos_at(c, t), r.qvel_at(c, t), nullptr);
+      sim::balance_targets(env, bref.frame(q, t + 1), sim::BalanceOptions{}, ctrl.data());
+      for (int k = 0; k < A; ++k) {
+        const double e = mu.data<float>()[k] - std::clamp(env.ctrl_to_action(k, ctrl[k]), -1.0, 1.0);
+        se[k] += e * e;
+      }
+    }
+  }
+  for (int k = 0; k < A; ++k) EXPECT_NEAR(rms[k], std::sqrt(se[k] / n), 1e-5) << "actuator " << k;
+  double mean = 0;
+  for (double x : rms) mean += x;
+  EXPECT_GT(mean / A, 1e-3);  // an untrained actor is not the expert
+}

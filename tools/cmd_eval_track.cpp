@@ -18,6 +18,7 @@
 #include "models/bfm/track_eval.h"
 #include "models/data/dataset.h"
 #include "nn/checkpoint.h"
+#include "sim/skeleton.h"
 #include "tensor/parallel.h"
 #include "tools/command.h"
 
@@ -108,6 +109,18 @@ void run_eval_track(const EvalTrackArgs& a) {
   };
   if (!a.no_pd) baseline_row("PD", "pd", [&] { return bfm::track_pd_all(h, refs); });
   if (a.expert) baseline_row("PD+balance expert", "balance_expert", [&] { return bfm::track_balance_all(h, refs); });
+  if (a.expert) {  // the student's imitation error against its teacher, on the reference states
+    const std::vector<double> rms = bfm::expert_imitation_rms(*agent, h, refs);
+    double all = 0, ankles = 0;
+    for (double r : rms) all += r * r;
+    for (int j : {t2m::sim::kFootL, t2m::sim::kFootR})
+      for (int i = 0; i < 3; ++i) ankles += rms[(size_t)(3 * (j - 1) + i)] * rms[(size_t)(3 * (j - 1) + i)];
+    all = std::sqrt(all / rms.size());
+    ankles = std::sqrt(ankles / 6);
+    result["expert_imitation_rms"] = {{"all", all}, {"ankles", ankles}, {"per_actuator", rms}};
+    std::printf("imitation RMS vs the balance expert's action on the reference states ([-1, 1] units): %.4f (ankles %.4f)\n",
+                all, ankles);
+  }
   const std::vector<double> kl = bfm::window_action_kl(*agent, refs, a.kl_window);
   double kl_mean = 0;
   for (double k : kl) kl_mean += k;

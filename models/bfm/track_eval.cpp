@@ -3,6 +3,7 @@
 
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 
 #include "autograd/no_grad.h"
@@ -139,6 +140,34 @@ std::vector<int> holdable_start_clips(std::shared_ptr<const sim::Humanoid> h, co
   for (int c = 0; c < N; ++c)
     if (ok[c]) out.push_back(c);
   return out;
+}
+
+std::vector<double> expert_imitation_rms(FbAgent& agent, std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs,
+                                         const sim::BalanceOptions& bal) {
+  check_refs(&agent, *h, refs);
+  ag::NoGradGuard ng;
+  const int A = h->model()->nu;
+  std::vector<double> se((size_t)A, 0.0);
+  int64_t n = 0;
+  sim::Env env(h);
+  std::vector<double> ctrl((size_t)A);
+  for (int c = 0; c < refs.clips(); ++c) {
+    const int T = refs.frames(c);
+    const Tensor s = clip_states(refs, c);
+    const Tensor mu = agent.actor_mean(s.narrow(0, 0, T - 1).contiguous(), agent.infer_tracking_z(s)).contiguous();
+    const sim::QposTrajectory q = refs.trajectory(c);
+    const sim::BalanceReference bref = sim::balance_reference(*h, q);
+    for (int t = 0; t + 1 < T; ++t, ++n) {
+      env.reset(refs.qpos_at(c, t), refs.qvel_at(c, t), nullptr);
+      sim::balance_targets(env, bref.frame(q, t + 1), bal, ctrl.data());
+      for (int k = 0; k < A; ++k) {
+        const double e = mu.data<float>()[(int64_t)t * A + k] - std::clamp(env.ctrl_to_action(k, ctrl[k]), -1.0, 1.0);
+        se[k] += e * e;
+      }
+    }
+  }
+  for (double& x : se) x = std::sqrt(x / std::max<int64_t>(n, 1));
+  return se;
 }
 
 std::vector<double> window_action_kl(FbAgent& agent, const RefMotions& refs, int L_hat) {

@@ -37,6 +37,11 @@ std::vector<sim::PdResult> track_balance_all(std::shared_ptr<const sim::Humanoid
 // success): the standing poses `t2m train bfm --static-holds` teaches (OpenMP over clips). Error: frames < 2.
 std::vector<int> holdable_start_clips(std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs, int frames,
                                       const sim::BalanceOptions& bal = {});
+// How closely the policy imitates its teacher: per actuator, the RMS over every reference state s_t (t = 0..T-2,
+// the kinematic replay; z_t from Eq 2) of mu(s_t, z_t) minus the balance expert's noiseless action for frame t+1,
+// in [-1, 1] action units (the DAgger label of models/bfm/collect). [A]
+std::vector<double> expert_imitation_rms(FbAgent& agent, std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs,
+                                         const sim::BalanceOptions& bal = {});
 // Per-clip Eq 21 action KL between the Eq 2 latents with windows L_hat and the agent's track_window.
 std::vector<double> window_action_kl(FbAgent& agent, const RefMotions& refs, int L_hat);
 
