@@ -335,3 +335,20 @@ TEST(BfmTrackEval, ExpertImitationRmsIsTheRmsOfPolicyMinusExpertLabel) {
   for (double x : rms) mean += x;
   EXPECT_GT(mean / A, 1e-3);  // an untrained actor is not the expert
 }
+
+TEST(BfmTrackEval, SummaryByGroupSplitsTheClips) {
+  // Three results in two groups: each group's summary is summarize_tracking of its own clips; labels must match.
+  std::vector<sim::PdResult> r(3);
+  r[0].frames = 10, r[0].frames_ok = 10, r[0].success = true, r[0].mpjpe_m = 0.1;
+  r[1].frames = 10, r[1].frames_ok = 2, r[1].fell = true, r[1].mpjpe_m = 0.9;
+  r[2].frames = 20, r[2].frames_ok = 5, r[2].mpjpe_m = 0.5;
+  const nlohmann::json g = summarize_tracking_by_group(r, {"walk", "wave", "walk"});
+  ASSERT_EQ(g.size(), 2u);
+  EXPECT_EQ(g["walk"]["clips"], 2);
+  EXPECT_EQ(g["wave"]["clips"], 1);
+  EXPECT_DOUBLE_EQ(g["walk"]["success_rate"].get<double>(), 0.5);
+  EXPECT_DOUBLE_EQ(g["walk"]["mean_fraction_of_frames_tracked"].get<double>(), (1.0 + 0.25) / 2);
+  EXPECT_DOUBLE_EQ(g["wave"]["fall_rate"].get<double>(), 1.0);
+  EXPECT_DOUBLE_EQ(g["wave"]["mpjpe_m"].get<double>(), 0.9);
+  EXPECT_THROW(summarize_tracking_by_group(r, {"walk", "wave"}), t2m::Error);
+}

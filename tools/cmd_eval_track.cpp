@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -72,7 +73,16 @@ void run_eval_track(const EvalTrackArgs& a) {
   if (!fs::exists(mpath)) throw Error("eval track: no manifest at " + mpath + " (run `t2m data prepare`)");
   auto h = t2m::sim::Humanoid::create();
   if (!(a.stand_s >= 0) || a.stand_s > 120) throw Error("eval track: --stand must be in [0, 120] seconds");
-  bfm::RefMotions refs = bfm::load_ref_motions(*h, t2m::data::load_manifest(mpath), split, a.clips);
+  const t2m::data::Manifest manifest = t2m::data::load_manifest(mpath);
+  bfm::RefMotions refs = bfm::load_ref_motions(*h, manifest, split, a.clips);
+  // Each clip's content label (walk, run, wave-right-hand, ...) for the per-content breakdown (not with --stand).
+  std::vector<std::string> content;
+  if (a.stand_s <= 0) {
+    std::map<std::string, std::string> label;
+    for (const auto& ci : manifest.clips) label[ci.name] = ci.content_label;
+    for (const auto& n : refs.names) content.push_back(label.count(n) ? label[n] : "?");
+  }
+  json by_content = json::object();
   if (a.stand_s > 0) {
     bfm::RefMotions holds;
     bfm::append_static_holds(holds, refs, *h, bfm::spread_indices(refs.clips(), refs.clips()),
@@ -88,6 +98,7 @@ void run_eval_track(const EvalTrackArgs& a) {
   const auto bfm_res = bfm::track_bfm(*agent, h, refs);
   const double bfm_s = std::chrono::duration<double>(clock::now() - t0).count();
   const json bs = bfm::summarize_tracking(bfm_res);
+  if (!content.empty()) by_content["bfm"] = bfm::summarize_tracking_by_group(bfm_res, content);
   json result = {{"command", a.stand_s > 0 ? "eval track --stand" : "eval track"},
                  {"data", "Bandai-Namco-Research-Motiondataset (CC BY-NC 4.0), split " + a.split},
                  {"policy", a.policy},
@@ -105,6 +116,7 @@ void run_eval_track(const EvalTrackArgs& a) {
     result[key] = s;
     result[key + "_seconds"] = std::chrono::duration<double>(clock::now() - t0).count();
     result[key + "_clips"] = rows_json(refs, res);
+    if (!content.empty()) by_content[key] = bfm::summarize_tracking_by_group(res, content);
     print_row(label, s);
   };
   if (!a.no_pd) baseline_row("PD", "pd", [&] { return bfm::track_pd_all(h, refs); });
@@ -120,6 +132,19 @@ void run_eval_track(const EvalTrackArgs& a) {
     result["expert_imitation_rms"] = {{"all", all}, {"ankles", ankles}, {"per_actuator", rms}};
     std::printf("imitation RMS vs the balance expert's action on the reference states ([-1, 1] units): %.4f (ankles %.4f)\n",
                 all, ankles);
+  }
+  if (!content.empty()) {  // success and frames tracked per content label, one column per controller
+    result["by_content"] = by_content;
+    std::printf("by content label (success %% / frames tracked %%):\n%-22s %5s", "content", "clips");
+    for (const auto& [who, _] : by_content.items()) std::printf("  %-17s", who.c_str());
+    std::printf("\n");
+    for (const auto& [g, s] : by_content["bfm"].items()) {
+      std::printf("%-22s %5d", g.c_str(), s["clips"].get<int>());
+      for (const auto& [who, groups] : by_content.items())
+        std::printf("  %5.1f / %5.1f    ", 100 * groups[g]["success_rate"].get<double>(),
+                    100 * groups[g]["mean_fraction_of_frames_tracked"].get<double>());
+      std::printf("\n");
+    }
   }
   const std::vector<double> kl = bfm::window_action_kl(*agent, refs, a.kl_window);
   double kl_mean = 0;

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <map>
 
 #include "autograd/no_grad.h"
 #include "sim/env.h"
@@ -191,6 +192,21 @@ nlohmann::json summarize_tracking(const std::vector<sim::PdResult>& r) {
   const double n = std::max<size_t>(r.size(), 1);
   return {{"clips", r.size()},       {"success_rate", succ / n}, {"fall_rate", fell / n},
           {"mpjpe_m", mpjpe / n},    {"root_drift_m", drift / n}, {"mean_fraction_of_frames_tracked", frac / n}};
+}
+
+nlohmann::json summarize_tracking_by_group(const std::vector<sim::PdResult>& r, const std::vector<std::string>& group) {
+  if (group.size() != r.size())
+    throw Error("summarize_tracking_by_group: " + std::to_string(group.size()) + " group labels for " +
+                std::to_string(r.size()) + " results");
+  std::map<std::string, std::vector<sim::PdResult>> by;
+  for (size_t c = 0; c < r.size(); ++c) {
+    sim::PdResult x = r[c];
+    x.simulated = {};  // the summary reads the scalars only
+    by[group[c]].push_back(std::move(x));
+  }
+  nlohmann::json out = nlohmann::json::object();
+  for (const auto& [g, rs] : by) out[g] = summarize_tracking(rs);
+  return out;
 }
 
 }  // namespace t2m::bfm

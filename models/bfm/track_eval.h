@@ -48,5 +48,8 @@ std::vector<double> window_action_kl(FbAgent& agent, const RefMotions& refs, int
 // Summary over clips: {"clips", "success_rate", "fall_rate", "mpjpe_m", "root_drift_m",
 // "mean_fraction_of_frames_tracked"} (means over clips, the fields of `t2m track-pd`).
 nlohmann::json summarize_tracking(const std::vector<sim::PdResult>& r);
+// The same summary per group of clips ({group: summary}, groups in sorted order); group[c] names clip c's group
+// (e.g. its content label). Throws t2m::Error when the sizes differ.
+nlohmann::json summarize_tracking_by_group(const std::vector<sim::PdResult>& r, const std::vector<std::string>& group);
 
 }  // namespace t2m::bfm
