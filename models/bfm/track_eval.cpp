@@ -183,29 +183,34 @@ std::vector<double> window_action_kl(FbAgent& agent, const RefMotions& refs, int
   return kl;
 }
 
-nlohmann::json summarize_tracking(const std::vector<sim::PdResult>& r) {
+namespace {
+// The summary fields over the clips `r` points at.
+nlohmann::json summarize(const std::vector<const sim::PdResult*>& r) {
   double succ = 0, fell = 0, mpjpe = 0, drift = 0, frac = 0;
-  for (const auto& x : r) {
-    succ += x.success, fell += x.fell, mpjpe += x.mpjpe_m, drift += x.root_drift_m;
-    frac += x.frames ? (double)x.frames_ok / x.frames : 0.0;
+  for (const sim::PdResult* x : r) {
+    succ += x->success, fell += x->fell, mpjpe += x->mpjpe_m, drift += x->root_drift_m;
+    frac += x->frames ? (double)x->frames_ok / x->frames : 0.0;
   }
   const double n = std::max<size_t>(r.size(), 1);
   return {{"clips", r.size()},       {"success_rate", succ / n}, {"fall_rate", fell / n},
           {"mpjpe_m", mpjpe / n},    {"root_drift_m", drift / n}, {"mean_fraction_of_frames_tracked", frac / n}};
+}
+}  // namespace
+
+nlohmann::json summarize_tracking(const std::vector<sim::PdResult>& r) {
+  std::vector<const sim::PdResult*> all;
+  for (const auto& x : r) all.push_back(&x);
+  return summarize(all);
 }
 
 nlohmann::json summarize_tracking_by_group(const std::vector<sim::PdResult>& r, const std::vector<std::string>& group) {
   if (group.size() != r.size())
     throw Error("summarize_tracking_by_group: " + std::to_string(group.size()) + " group labels for " +
                 std::to_string(r.size()) + " results");
-  std::map<std::string, std::vector<sim::PdResult>> by;
-  for (size_t c = 0; c < r.size(); ++c) {
-    sim::PdResult x = r[c];
-    x.simulated = {};  // the summary reads the scalars only
-    by[group[c]].push_back(std::move(x));
-  }
+  std::map<std::string, std::vector<const sim::PdResult*>> by;
+  for (size_t c = 0; c < r.size(); ++c) by[group[c]].push_back(&r[c]);
   nlohmann::json out = nlohmann::json::object();
-  for (const auto& [g, rs] : by) out[g] = summarize_tracking(rs);
+  for (const auto& [g, rs] : by) out[g] = summarize(rs);
   return out;
 }
 
