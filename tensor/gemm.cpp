@@ -164,7 +164,22 @@ void gemm_small_rows(const GemmArgs<T>& g, int64_t i0, int64_t i1) {
         for (int64_t k = 0; k < g.K; ++k) arow[k] = g.A[k * g.lda + i];
         a = arow;
       }
-      for (int64_t j = 0; j < g.N; ++j) {
+      int64_t j = 0;
+      if (g.tb) {  // four columns at once: four independent accumulator chains, each summed as in the loop below
+        for (; j + 4 <= g.N; j += 4) {
+          const T* b = g.B + j * g.ldb;
+          T s[4][8] = {};
+          int64_t k = 0;
+          for (; k + 8 <= g.K; k += 8)
+            for (int q = 0; q < 4; ++q)
+              for (int u = 0; u < 8; ++u) s[q][u] = std::fma(a[k + u], b[q * g.ldb + k + u], s[q][u]);
+          for (; k < g.K; ++k)
+            for (int q = 0; q < 4; ++q) s[q][0] = std::fma(a[k], b[q * g.ldb + k], s[q][0]);
+          for (int q = 0; q < 4; ++q)
+            tmp[j + q] = ((s[q][0] + s[q][4]) + (s[q][1] + s[q][5])) + ((s[q][2] + s[q][6]) + (s[q][3] + s[q][7]));
+        }
+      }
+      for (; j < g.N; ++j) {
         const T* b = g.tb ? g.B + j * g.ldb : g.B;
         T s[8] = {};
         int64_t k = 0;

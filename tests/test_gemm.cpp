@@ -260,6 +260,31 @@ TEST(Gemm, ThreadCountsGiveIdenticalResults) {
   t2m::set_num_threads(saved);
 }
 
+// The matrix-vector path (one row of A against B^T) sums four output columns at a time; each column must get
+// exactly the bits it gets when computed alone (N = 1), so a policy's actions do not depend on the layer width.
+TEST(Gemm, SmallRowPathColumnsMatchSingleColumnBits) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  for (const int64_t K : {5, 8, 37, 614}) {
+    const int64_t N = 11;  // two blocks of four and a tail of three
+    std::vector<float> a(static_cast<size_t>(K)), B(static_cast<size_t>(N * K));
+    for (auto& v : a) v = u(rng);
+    for (auto& v : B) v = u(rng);
+    std::vector<float> c(size_t(N), std::numeric_limits<float>::quiet_NaN());
+    gemm(false, true, 1, N, K, 1.0f, a.data(), K, B.data(), K, 0.0f, c.data(), N);
+    double ref_err = 0;
+    for (int64_t j = 0; j < N; ++j) {
+      float one = std::numeric_limits<float>::quiet_NaN();
+      gemm(false, true, 1, 1, K, 1.0f, a.data(), K, B.data() + j * K, K, 0.0f, &one, 1);
+      EXPECT_EQ(c[size_t(j)], one) << "column " << j << ", K=" << K;
+      double ref = 0;
+      for (int64_t k = 0; k < K; ++k) ref += double(a[size_t(k)]) * double(B[size_t(j * K + k)]);
+      ref_err = std::max(ref_err, std::abs(ref - double(c[size_t(j)])));
+    }
+    EXPECT_LT(ref_err, 1e-4) << "K=" << K;
+  }
+}
+
 TEST(Gemm, KernelChoice) {
   t2m::gemm_force_kernel("auto");
   const bool avx512 = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
