@@ -74,6 +74,35 @@ void Env::step_targets(const double* ctrl, float* obs_out) {
   if (obs_out) observe(obs_out);
 }
 
+void Env::save_state(EnvState& s) const {
+  s.time = d_->time;
+  s.qpos.assign(d_->qpos, d_->qpos + model_->nq);
+  s.qvel.assign(d_->qvel, d_->qvel + model_->nv);
+  s.act.assign(d_->act, d_->act + model_->na);
+  s.qacc_warmstart.assign(d_->qacc_warmstart, d_->qacc_warmstart + model_->nv);
+  s.contact.assign(d_->contact, d_->contact + d_->ncon);
+  s.diverged = diverged_;
+}
+
+void Env::restore_state(const EnvState& s) {
+  if ((int)s.qpos.size() != model_->nq || (int)s.qvel.size() != model_->nv || (int)s.act.size() != model_->na ||
+      (int)s.qacc_warmstart.size() != model_->nv || (int)s.contact.size() > model_->nconmax)
+    throw Error("Env::restore_state: the state does not match this model (nq " + std::to_string(s.qpos.size()) +
+                ", nv " + std::to_string(s.qvel.size()) + ", contacts " + std::to_string(s.contact.size()) + ")");
+  d_->time = s.time;
+  mju_copy(d_->qpos, s.qpos.data(), model_->nq);
+  mju_copy(d_->qvel, s.qvel.data(), model_->nv);
+  if (model_->na) mju_copy(d_->act, s.act.data(), model_->na);
+  mju_copy(d_->qacc_warmstart, s.qacc_warmstart.data(), model_->nv);
+  std::copy(s.contact.begin(), s.contact.end(), d_->contact);
+  d_->ncon = (int)s.contact.size();
+  diverged_ = s.diverged;
+  // The derived quantities advance() leaves behind, from the restored state.
+  mj_kinematics(model_, d_);
+  mj_comPos(model_, d_);
+  mj_comVel(model_, d_);
+}
+
 void Env::advance() {
   const int root = h_->tracked_bodies()[0];
   for (int s = 0; s < opt_.substeps; ++s) {

@@ -31,6 +31,16 @@ struct EnvOptions {
   double assist_force = 0.0;  // N, upward on the root body; 0 = no assist (the default and the baseline)
 };
 
+// A saved simulation state (Env::save_state / restore_state): everything the next control step reads — qpos, qvel,
+// act, the solver's warm start, time, and the contacts of the last physics step (which the balance expert reads to
+// find its stance legs). Restoring it and stepping gives bit for bit the steps the saved env would have taken.
+struct EnvState {
+  double time = 0;
+  std::vector<double> qpos, qvel, act, qacc_warmstart;
+  std::vector<mjContact> contact;
+  bool diverged = false;
+};
+
 class Env {
  public:
   explicit Env(std::shared_ptr<const Humanoid> h, EnvOptions opt = {});
@@ -47,6 +57,8 @@ class Env {
   void step(const float* action, float* obs_out);
   void step_targets(const double* ctrl, float* obs_out);  // ctrl [action_dim()] in actuator units
   void observe(float* obs_out) const;                     // the observation of the current state
+  void save_state(EnvState& s) const;  // reuses s's buffers
+  void restore_state(const EnvState& s);  // throws t2m::Error if s was saved from another model's sizes
 
   const mjModel* model() const { return model_; }
   const mjData* data() const { return d_; }

@@ -24,6 +24,7 @@
 
 #include "models/data/splits.h"
 #include "sim/balance_tracker.h"
+#include "sim/samcon.h"
 #include "sim/bvh.h"
 #include "sim/env.h"
 #include "sim/export.h"
@@ -187,6 +188,8 @@ struct PdArgs {
   bool no_ff = false;
   bool balance = false;
   sim::BalanceOptions bo;
+  bool samcon = false;
+  sim::SamconOptions so;
   std::string export_dir;
 };
 
@@ -205,15 +208,25 @@ void run_track_pd(const PdArgs& a) {
   po.velocity_feedforward = !a.no_ff;
   Progress prog{N};
   const auto t0 = std::chrono::steady_clock::now();
-#pragma omp parallel for schedule(dynamic)
+  // --samcon searches each clip with all threads (sim/samcon.h); the other controllers run one clip per thread.
+#pragma omp parallel for schedule(dynamic) if (!a.samcon)
   for (int i = 0; i < N; ++i) {
     json row = {{"name", clips[i].first}};
     try {
       const sim::QposTrajectory ref = sim::retarget(*h, load_motion(clips[i].second));
-      sim::Env env(h, sim::EnvOptions{.substeps = sim::kSubsteps, .assist_force = a.assist});
-      sim::BalanceOptions bo = a.bo;
-      bo.noise_seed = (uint64_t)i;  // per clip: independent of the thread schedule
-      res[i] = a.balance ? sim::track_balance(env, ref, bo, po) : sim::track_pd(env, ref, po);
+      if (a.samcon) {
+        sim::SamconOptions so = a.so;
+        so.balance = a.bo;
+        so.seed = a.so.seed + (uint64_t)i;  // per clip
+        sim::SamconResult sr = sim::track_samcon(h, ref, so, po);
+        row["frames_searched"] = sr.frames_searched;
+        res[i] = std::move(sr.track);
+      } else {
+        sim::Env env(h, sim::EnvOptions{.substeps = sim::kSubsteps, .assist_force = a.assist});
+        sim::BalanceOptions bo = a.bo;
+        bo.noise_seed = (uint64_t)i;  // per clip: independent of the thread schedule
+        res[i] = a.balance ? sim::track_balance(env, ref, bo, po) : sim::track_pd(env, ref, po);
+      }
       res[i].assist_force = a.assist;
       const auto& r = res[i];
       ok[i] = 1;
@@ -251,9 +264,11 @@ void run_track_pd(const PdArgs& a) {
             {"gain_scale", a.gain_scale},
             {"velocity_feedforward", !a.no_ff},
             {"control_steps_per_s", frames / std::max(secs, 1e-9)}};
-  std::printf("track-pd (%s, %d clips, assist %.0f N, gains x%g%s): success %.1f%%, fall %.1f%%, MPJPE %.1f mm, root drift "
+  const char* controller = a.samcon ? "samcon" : a.balance ? "balance expert" : "PD";
+  s["controller"] = controller;
+  std::printf("track-pd (%s, %s, %d clips, assist %.0f N, gains x%g%s): success %.1f%%, fall %.1f%%, MPJPE %.1f mm, root drift "
               "%.2f m, frames tracked %.1f%%, %.0f control steps/s\n",
-              a.clips.bvh.empty() ? (a.clips.split + " split").c_str() : "given files", n, a.assist, a.gain_scale, a.no_ff ? ", no feed-forward" : "", 100 * succ / dn,
+              controller, a.clips.bvh.empty() ? (a.clips.split + " split").c_str() : "given files", n, a.assist, a.gain_scale, a.no_ff ? ", no feed-forward" : "", 100 * succ / dn,
               100 * fell / dn, 1e3 * mpjpe / dn, drift / dn, 100 * frac_ok / dn, s["control_steps_per_s"].get<double>());
   write_json(a.clips.out, {{"command", "track-pd"}, {"split", a.clips.split}, {"summary", s}, {"clips", rows}});
 }
@@ -349,7 +364,18 @@ void add_sim_commands(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(0.0, 2.0));
   p->add_option("--export-dir", pd.export_dir, "write the simulated motion of every clip here (NAME.bvh and NAME.qpos.json)");
-  p->callback([] { run_track_pd(pd); });
+  p->add_flag("--samcon", pd.samcon,
+              "search offsets to the balance expert's targets per 0.1 s window (SAMCON, sim/samcon.h; slow: "
+              "~80 s per 6 s clip at 512 samples on 2 threads)");
+  p->add_option("--samcon-samples", pd.so.samples, "samcon: candidates per window")->capture_default_str()->check(CLI::PositiveNumber);
+  p->add_option("--samcon-beam", pd.so.beam, "samcon: states kept per window")->capture_default_str()->check(CLI::PositiveNumber);
+  p->add_option("--samcon-window", pd.so.window, "samcon: control steps per window")->capture_default_str()->check(CLI::PositiveNumber);
+  p->add_option("--samcon-sigma", pd.so.sigma, "samcon: std of the per-hinge target offset, rad")->capture_default_str()->check(CLI::Range(0.0, 1.0));
+  p->add_option("--samcon-seed", pd.so.seed, "samcon: seed (clip i uses seed + i)")->capture_default_str();
+  p->callback([] {
+    if (pd.samcon && pd.assist != 0) throw Error("track-pd: --samcon does not take --assist");
+    run_track_pd(pd);
+  });
 
   static OneArgs ex;
   auto* e = app.add_subcommand("export", "simulated (pd) or replayed motion of a clip -> BVH (data layout)");
