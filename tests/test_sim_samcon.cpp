@@ -67,7 +67,10 @@ TEST(SimSamcon, NoSamplingIsTheBalanceExpert) {
   const SamconResult r = track_samcon(humanoid(), walk(), o);
   Env env(humanoid());
   const PdResult e = track_balance(env, walk());
-  EXPECT_EQ(r.track.mpjpe_m, e.mpjpe_m);  // the same simulation, bit for bit
+  ASSERT_EQ(e.simulated.frames, walk().frames);
+  EXPECT_EQ(r.track.simulated.qpos, e.simulated.qpos);  // the same simulation, bit for bit
+  EXPECT_EQ(r.track.simulated.qvel, e.simulated.qvel);
+  EXPECT_EQ(r.track.mpjpe_m, e.mpjpe_m);
   EXPECT_EQ(r.track.max_error_m, e.max_error_m);
   EXPECT_EQ(r.track.root_drift_m, e.root_drift_m);
   EXPECT_EQ(r.track.frames_ok, e.frames_ok);

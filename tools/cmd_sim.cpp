@@ -220,6 +220,10 @@ void run_track_pd(const PdArgs& a) {
         so.seed = a.so.seed + (uint64_t)i;  // per clip
         sim::SamconResult sr = sim::track_samcon(h, ref, so, po);
         row["frames_searched"] = sr.frames_searched;
+        if (!a.export_dir.empty())  // the teacher's actuator targets per control step (a demonstration)
+          write_json(a.export_dir + "/" + clips[i].first + ".ctrl.json",
+                     {{"format", "t2m-ctrl-1"}, {"fps", ref.fps}, {"nu", (int)(sr.ctrl.size() / std::max(ref.frames - 1, 1))},
+                      {"frames_searched", sr.frames_searched}, {"ctrl", sr.ctrl}, {"offset", sr.offset}});
         res[i] = std::move(sr.track);
       } else {
         sim::Env env(h, sim::EnvOptions{.substeps = sim::kSubsteps, .assist_force = a.assist});
@@ -363,7 +367,7 @@ void add_sim_commands(CLI::App& app) {
                 "balance: Gaussian noise std added to every target in [-1, 1] action units (seed = clip index)")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 2.0));
-  p->add_option("--export-dir", pd.export_dir, "write the simulated motion of every clip here (NAME.bvh and NAME.qpos.json)");
+  p->add_option("--export-dir", pd.export_dir, "write the simulated motion of every clip here (NAME.bvh and NAME.qpos.json; with --samcon also NAME.ctrl.json, the actuator targets per control step)");
   p->add_flag("--samcon", pd.samcon,
               "search offsets to the balance expert's targets per 0.1 s window (SAMCON, sim/samcon.h; slow: "
               "~80 s per 6 s clip at 512 samples on 2 threads)");
