@@ -92,7 +92,8 @@ for name, b in ours.items():
     gf_cpu = flops / (b["cpu_ms"] * 1e-3)  # per CPU-second: per busy core
     mine = b["cpu_ms"] if mode == "cpu" else b["ms"]
     theirs = t.get(key, float("nan"))
+    cell = lambda v: f"{v:9.1f}" if v is not None else f"{'-':>9s}"  # torch's CPU time: --mode cpu only
     print(f"{name:22s} {int(b['threads']):3d} {b['ms']:9.1f} {b['cpu_ms']:9.1f} {gf_cpu:9.1f} "
-          f"{100 * gf_cpu / 220:6.1f} {t.get('ms', float('nan')):9.1f} {t.get('cpu', float('nan')):9.1f} "
+          f"{100 * gf_cpu / 220:6.1f} {cell(t.get('ms'))} {cell(t.get('cpu'))} "
           f"{theirs / mine:7.2f}x")
 PY
