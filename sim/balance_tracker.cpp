@@ -163,15 +163,8 @@ PdResult track_balance(Env& env, const QposTrajectory& ref, const BalanceOptions
   std::vector<double> ctrl(m->nu);
   std::mt19937_64 rng(opt.noise_seed);
   std::normal_distribution<double> noise(0.0, 1.0);
-  QposTrajectory sim;
-  sim.frames = ref.frames, sim.fps = ref.fps, sim.nq = m->nq, sim.nv = m->nv;
-  auto record = [&] {
-    sim.qpos.insert(sim.qpos.end(), env.data()->qpos, env.data()->qpos + m->nq);
-    sim.qvel.insert(sim.qvel.end(), env.data()->qvel, env.data()->qvel + m->nv);
-  };
   env.reset(ref.qpos.data(), ref.qvel.data(), nullptr);
   score.add_frame(env);
-  record();
   for (int t = 1; t < ref.frames; ++t) {
     balance_targets(env, bref.frame(ref, t), opt, ctrl.data());
     if (opt.action_noise > 0)
@@ -179,11 +172,8 @@ PdResult track_balance(Env& env, const QposTrajectory& ref, const BalanceOptions
         ctrl[k] = env.action_to_ctrl(k, std::clamp(env.ctrl_to_action(k, ctrl[k]) + opt.action_noise * noise(rng), -1.0, 1.0));
     env.step_targets(ctrl.data(), nullptr);
     score.add_frame(env);
-    record();
   }
-  PdResult r = score.result();
-  r.simulated = std::move(sim);
-  return r;
+  return score.result();
 }
 
 }  // namespace t2m::sim

@@ -18,15 +18,7 @@ PdResult track_pd(Env& env, const QposTrajectory& ref, const PdOptions& opt) {
   const int T = ref.frames, nu = m->nu;
   TrackingScorer score(h, ref, opt);
   std::vector<double> ctrl(nu);
-  QposTrajectory sim;
-  sim.frames = T;
-  sim.fps = ref.fps;
-  sim.nq = m->nq;
-  sim.nv = m->nv;
-  sim.qpos.resize((size_t)T * m->nq);
-  sim.qvel.resize((size_t)T * m->nv);
   env.reset(ref.qpos.data(), ref.qvel.data(), nullptr);
-  const mjData* d = env.data();
   for (int t = 0; t < T; ++t) {
     if (t > 0) {
       pd_target_angles(m, ref.qpos.data() + (size_t)t * m->nq, ref.qvel.data() + (size_t)t * m->nv,
@@ -34,13 +26,9 @@ PdResult track_pd(Env& env, const QposTrajectory& ref, const PdOptions& opt) {
       clamp_to_ctrlrange(m, ctrl.data());
       env.step_targets(ctrl.data(), nullptr);
     }
-    std::copy(d->qpos, d->qpos + m->nq, sim.qpos.begin() + (size_t)t * m->nq);
-    std::copy(d->qvel, d->qvel + m->nv, sim.qvel.begin() + (size_t)t * m->nv);
     score.add_frame(env);
   }
-  PdResult r = score.result();
-  r.simulated = std::move(sim);
-  return r;
+  return score.result();
 }
 
 void pd_target_angles(const mjModel* m, const double* qpos_ref, const double* qvel_ref, bool feedforward,
@@ -71,6 +59,9 @@ TrackingScorer::TrackingScorer(const Humanoid& h, const QposTrajectory& ref, con
     : h_(h), opt_(opt), T_(ref.frames) {
   if (!h.is_humanoid()) throw Error("TrackingScorer: the model is not the t2m humanoid");
   ref_pos_ = replay_joint_positions(h, ref);  // checks the reference sizes
+  simulated_.fps = ref.fps, simulated_.nq = ref.nq, simulated_.nv = ref.nv;
+  simulated_.qpos.reserve((size_t)T_ * ref.nq);
+  simulated_.qvel.reserve((size_t)T_ * ref.nv);
 }
 
 void TrackingScorer::add_frame(const Env& env) {
@@ -98,7 +89,9 @@ void TrackingScorer::add_frame(const Env& env) {
   const double dx = d->xpos[3 * bodies[0]] - ref_pos_[(size_t)t * B * 3];
   const double dy = d->xpos[3 * bodies[0] + 1] - ref_pos_[(size_t)t * B * 3 + 1];
   drift_ = std::sqrt(dx * dx + dy * dy);  // kept for the last frame
-  ++t_;
+  simulated_.qpos.insert(simulated_.qpos.end(), d->qpos, d->qpos + simulated_.nq);
+  simulated_.qvel.insert(simulated_.qvel.end(), d->qvel, d->qvel + simulated_.nv);
+  simulated_.frames = ++t_;
 }
 
 PdResult TrackingScorer::result() const {
@@ -110,6 +103,7 @@ PdResult TrackingScorer::result() const {
   r.root_drift_m = drift_;
   r.max_error_m = max_error_;
   r.frames_ok = frames_ok_;
+  r.simulated = simulated_;
   return r;
 }
 

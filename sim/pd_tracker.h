@@ -50,10 +50,11 @@ void clamp_to_ctrlrange(const mjModel* m, double* ctrl);
 // Throws t2m::Error ("WHO: reference has ...") unless ref has >= 1 frame and qpos / qvel sizes of the model.
 void check_tracking_reference(const mjModel* m, const QposTrajectory& ref, const char* who);
 
-// The metric code of track_pd for any controller (the BFM tracker uses it too): after the env holds the simulated
-// state of frame t (t = 0, 1, ... in order; frame 0 = the start state), call add_frame(env); result() gives the
-// metric fields of a PdResult (frames = frames added; simulated and assist_force left empty). Throws t2m::Error on
-// a reference that does not match the humanoid, or on more frames than the reference has.
+// The metric code of track_pd for any controller (the BFM tracker and SAMCON use it too): after the env holds the
+// simulated state of frame t (t = 0, 1, ... in order; frame 0 = the start state), call add_frame(env), which also
+// records that state; result() gives the metric fields of a PdResult and the recorded trajectory (frames = frames
+// added; assist_force left empty). Throws t2m::Error on a reference that does not match the humanoid, or on more
+// frames than the reference has.
 class TrackingScorer {
  public:
   TrackingScorer(const Humanoid& h, const QposTrajectory& ref, const PdOptions& opt = {});
@@ -67,6 +68,7 @@ class TrackingScorer {
   PdOptions opt_;
   int T_;
   std::vector<float> ref_pos_;  // [T, 21, 3]
+  QposTrajectory simulated_;    // the states added so far
   int t_ = 0, frames_ok_ = 0;
   double sum_ = 0, max_error_ = 0, drift_ = 0, last_error_ = 0;
   bool failed_ = false, fell_ = false;

@@ -151,24 +151,15 @@ SamconResult track_samcon(const std::shared_ptr<const Humanoid>& h, const QposTr
   // Replay from the reference start and score it like track_pd.
   Env& env = *envs[0];
   TrackingScorer score(*h, ref, pd);
-  QposTrajectory sim;
-  sim.frames = T, sim.fps = ref.fps, sim.nq = ref.nq, sim.nv = ref.nv;
-  auto record = [&](const Env& e) {
-    sim.qpos.insert(sim.qpos.end(), e.data()->qpos, e.data()->qpos + ref.nq);
-    sim.qvel.insert(sim.qvel.end(), e.data()->qvel, e.data()->qvel + ref.nv);
-  };
   env.reset(ref.qpos.data(), ref.qvel.data(), nullptr);
   score.add_frame(env);
-  record(env);
   res.ctrl.assign((size_t)(T - 1) * nu, 0.0);
   for (int f = 1; f < T; ++f) {
     step_with_offset(env, ref, bref, bo, f, res.offset.data() + (size_t)(f - 1) * nu,
                      res.ctrl.data() + (size_t)(f - 1) * nu);
     score.add_frame(env);
-    record(env);
   }
   res.track = score.result();
-  res.track.simulated = std::move(sim);
   return res;
 }
 

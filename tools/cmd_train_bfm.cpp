@@ -80,6 +80,7 @@ void run_train_bfm(const TrainBfmArgs& a, CLI::App* app) {
         {"--seed-transitions", [&] { f.seed_transitions = g.seed_transitions; }},
         {"--seed-expert", [&] { f.seed_expert = g.seed_expert; }},
         {"--bc-coef", [&] { f.fb.bc_coef = g.fb.bc_coef; }},
+        {"--lr-actor", [&] { f.fb.lr_actor = g.fb.lr_actor; }},
         {"--no-dagger", [&] { f.dagger = g.dagger; }},
         {"--total-updates", [&] { f.total_updates = g.total_updates; }},
         {"--offline-updates", [&] { f.offline_updates = g.offline_updates; }},
@@ -219,6 +220,7 @@ void add_train_bfm(CLI::App& app) {
   c->add_flag("--no-dagger{false}", cfg.dagger,
               "BC on the seed actions only (default: expert labels, half on the policy's relabelled online states)");
   c->add_option("--bc-coef", cfg.fb.bc_coef, "behaviour-cloning weight of the actor loss")->capture_default_str();
+  c->add_option("--lr-actor", cfg.fb.lr_actor, "AdamW learning rate of the actor")->capture_default_str();
   c->add_option("--ref-clips", cfg.ref_clips, "training clips used (0 = all)")->capture_default_str();
   c->add_option("--static-holds", cfg.static_holds,
                 "standing-still references: qpos0 + N first poses of clips that the balance expert holds (0 = none)")

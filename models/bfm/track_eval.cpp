@@ -40,23 +40,14 @@ std::vector<sim::PdResult> track_bfm(FbAgent& agent, std::shared_ptr<const sim::
   std::vector<std::unique_ptr<sim::Env>> envs;
   std::vector<sim::TrackingScorer> score;
   score.reserve(N);
-  std::vector<sim::QposTrajectory> traj(N), simulated(N);
+  std::vector<sim::QposTrajectory> traj(N);
   for (int c = 0; c < N; ++c) traj[c] = refs.trajectory(c);
-  auto record = [&](int c) {  // the simulated state of the frame just reached (PdResult::simulated)
-    const sim::Env& e = *envs[c];
-    sim::QposTrajectory& q = simulated[c];
-    q.nq = e.nq(), q.nv = e.nv();
-    q.qpos.insert(q.qpos.end(), e.data()->qpos, e.data()->qpos + q.nq);
-    q.qvel.insert(q.qvel.end(), e.data()->qvel, e.data()->qvel + q.nv);
-    ++q.frames;
-  };
   std::vector<float> obs((size_t)N * D);
   for (int c = 0; c < N; ++c) {
     envs.push_back(std::make_unique<sim::Env>(h));
     envs[c]->reset(traj[c].qpos.data(), traj[c].qvel.data(), obs.data() + (size_t)c * D);
     score.emplace_back(*h, traj[c], opt);
     score[c].add_frame(*envs[c]);
-    record(c);
   }
   int Tmax = 0;
   for (int c = 0; c < N; ++c) Tmax = std::max(Tmax, refs.frames(c));
@@ -79,14 +70,10 @@ std::vector<sim::PdResult> track_bfm(FbAgent& agent, std::shared_ptr<const sim::
       const int c = act[i];
       envs[c]->step(a.data<float>() + i * A, obs.data() + (size_t)c * D);
       score[c].add_frame(*envs[c]);
-      record(c);
     }
   }
   std::vector<sim::PdResult> out;
-  for (int c = 0; c < N; ++c) {
-    out.push_back(score[c].result());
-    out.back().simulated = std::move(simulated[c]);
-  }
+  for (int c = 0; c < N; ++c) out.push_back(score[c].result());
   return out;
 }
 
