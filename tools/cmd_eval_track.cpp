@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <map>
+#include <numeric>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -85,8 +86,9 @@ void run_eval_track(const EvalTrackArgs& a) {
   json by_content = json::object();
   if (a.stand_s > 0) {
     bfm::RefMotions holds;
-    bfm::append_static_holds(holds, refs, *h, bfm::spread_indices(refs.clips(), refs.clips()),
-                              std::max(2, (int)std::lround(a.stand_s * 30)));
+    std::vector<int> every_clip((size_t)refs.clips());
+    std::iota(every_clip.begin(), every_clip.end(), 0);
+    bfm::append_static_holds(holds, refs, *h, every_clip, std::max(2, (int)std::lround(a.stand_s * 30)));
     refs = std::move(holds);
   }
   char stand_label[64];
