@@ -127,9 +127,10 @@ Variable conv1d(const Variable& x, const Variable& weight, const Variable& bias,
   const int64_t K = weight.size(2);
   if (causal) {
     const int64_t left = padding.left < 0 ? (K - 1) * dilation : padding.left;
-    if (left == (K - 1) * dilation)
+    if (left == (K - 1) * dilation) {
       s.causal = true;  // the kernel's own replicate padding
-    else if (left > 0 && x.size(2) >= 1)
+      s.exact_causal = padding.exact;
+    } else if (left > 0 && x.size(2) >= 1)
       xin = pad_replicate_left(x, left);
   } else if (padding.left == padding.right) {
     s.pad = padding.left;

@@ -29,10 +29,13 @@ struct Conv1dPadding {
   Mode mode = Mode::zeros;
   int64_t left = 0, right = 0;  // zeros: zero frames per side; causal: replicated frames on the left
                                 // (left < 0: (K-1)*dilation), right unused
+  bool exact = true;            // causal: fused::Conv1dShape::exact_causal (false: rounding may see later frames)
 
-  static Conv1dPadding zeros(int64_t left, int64_t right) { return {Mode::zeros, left, right}; }
-  static Conv1dPadding same_zeros(int64_t pad) { return {Mode::zeros, pad, pad}; }
-  static Conv1dPadding causal(int64_t left = -1) { return {Mode::causal_replicate, left, 0}; }
+  static Conv1dPadding zeros(int64_t left, int64_t right) { return {Mode::zeros, left, right, true}; }
+  static Conv1dPadding same_zeros(int64_t pad) { return {Mode::zeros, pad, pad, true}; }
+  static Conv1dPadding causal(int64_t left = -1, bool exact = true) {
+    return {Mode::causal_replicate, left, 0, exact};
+  }
 };
 
 Variable conv1d(const Variable& x, const Variable& weight, const Variable& bias, int64_t stride = 1,

@@ -16,7 +16,8 @@ Conv1d::Conv1d(int64_t cin, int64_t cout, int64_t k, const Conv1dOptions& opts, 
                 std::to_string(opts.pad));
   if (opts.mode == Conv1dPad::causal) {
     if (opts.pad != 0) throw Error("Conv1d: causal padding is implied; pad must be 0, got " + std::to_string(opts.pad));
-    padding_ = ag::Conv1dPadding::causal(std::max<int64_t>(0, (k - 1) * opts.dilation + 1 - opts.stride));
+    padding_ = ag::Conv1dPadding::causal(std::max<int64_t>(0, (k - 1) * opts.dilation + 1 - opts.stride),
+                                         opts.exact_causal);
   } else {
     padding_ = ag::Conv1dPadding::same_zeros(opts.pad);
   }

@@ -27,6 +27,7 @@ struct Conv1dOptions {
   Conv1dPad mode = Conv1dPad::zeros;
   int64_t pad = 0;  // zeros mode: frames per side
   bool bias = true;
+  bool exact_causal = true;  // causal: false lets rounding see later frames (faster Winograd F(4, 3), ops_conv.h)
 };
 
 class Conv1d : public Module {

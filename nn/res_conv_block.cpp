@@ -12,6 +12,7 @@ ResConvBlock::ResConvBlock(int64_t channels, int64_t dilation, Generator& gen, i
   Conv1dOptions causal;
   causal.dilation = dilation;
   causal.mode = Conv1dPad::causal;
+  causal.exact_causal = false;  // n1/n2 pool over the whole time axis already: the block is not strictly causal
   c1_ = register_module("c1", std::make_shared<Conv1d>(channels, channels, 3, causal, gen));
   n2_ = register_module("n2", std::make_shared<GroupNorm>(groups, channels));
   c2_ = register_module("c2", std::make_shared<Conv1d>(channels, channels, 1, Conv1dOptions{}, gen));

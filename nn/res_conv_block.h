@@ -1,5 +1,6 @@
 // res_conv_block.h — the VBB residual block (ARCHITECTURE.md section 7; anchor REFERENCE.md "vae"):
-//   h = c1(relu(n1(x)))        n1 GroupNorm(groups, C), c1 causal dilated Conv1d k3 (replicate-left padding)
+//   h = c1(relu(n1(x)))        n1 GroupNorm(groups, C), c1 causal dilated Conv1d k3 (replicate-left padding; not
+//                              exact_causal: GroupNorm's statistics see every frame anyway, so c1 may use F(4, 3))
 //   h = c2(relu(n2(h)))        n2 GroupNorm(groups, C), c2 Conv1d k1
 //   y = x + dropout(h)         dropout p (0.1 in the paper), from the Generator passed to forward
 // x, y (B, C, T). Children "n1", "c1", "n2", "c2", "drop" (parameters initialised from gen in that order, as the

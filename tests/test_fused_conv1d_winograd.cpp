@@ -4,6 +4,8 @@
 // tile choice and bad configurations.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <tuple>
 
 #include "tensor/fused/conv1d.h"
@@ -157,6 +159,9 @@ TEST(Conv1dWinograd, VbbShapesMatchIm2colAndDoubleReference) {
 TEST(Conv1dWinograd, AutomaticTileChoice) {
   EXPECT_EQ(conv1d_winograd_tile(shape(32, 256, 256, 64, 1, 1, false)), 4);  // 1.5 vs 3 multiply-adds per frame
   EXPECT_EQ(conv1d_winograd_tile(shape(32, 256, 256, 64, 1, 0, true)), 2);   // causal: F(2,3) only
+  Conv1dShape loose = shape(32, 256, 256, 64, 1, 0, true);
+  loose.exact_causal = false;
+  EXPECT_EQ(conv1d_winograd_tile(loose), 4);  // causal up to rounding: F(4,3) allowed
   EXPECT_EQ(conv1d_winograd_tile(shape(32, 256, 256, 8, 9, 0, true)), 0);    // every tile drops most outputs
   EXPECT_EQ(conv1d_winograd_tile(shape(32, 256, 256, 16, 9, 9, false)), 2);  // F(4,3) would waste more
   EXPECT_EQ(conv1d_winograd_tile(shape(32, 4, 256, 64, 1, 0, true)), 0);     // too few channels to pay
@@ -189,6 +194,33 @@ TEST(Conv1dWinograd, AutomaticPathIsExactlyCausal) {
             ASSERT_EQ(y0[i], y1[i]) << "dilation " << dil << ": output frame " << u << " saw input frame " << t;
           }
     }
+  }
+}
+
+// exact_causal = false (F(4,3) on a causal conv): a change at input frame t moves earlier outputs by rounding only
+// (the cancelled terms of the tile), far less than it moves output frame t itself.
+TEST(Conv1dWinograd, LooseCausalLeaksOnlyRounding) {
+  for (int64_t dil : {1, 3}) {
+    Conv1dShape s = shape(2, 16, 16, 40, dil, 0, true);
+    s.exact_causal = false;
+    ASSERT_EQ(conv1d_winograd_tile(s), 4) << "dilation " << dil;
+    auto x = to_float(randn(s.B * s.Cin * s.T, 33)), w = to_float(randn(s.Cout * s.Cin * 3, 34));
+    std::vector<float> y0(s.B * s.Cout * s.T), y1(y0.size());
+    conv1d_forward<float>(y0.data(), x.data(), w.data(), nullptr, s);
+    auto xt = x;
+    const int64_t t = 21;
+    for (int64_t n = 0; n < s.B; ++n)
+      for (int64_t ci = 0; ci < s.Cin; ++ci) xt[(n * s.Cin + ci) * s.T + t] += 1.0f;
+    conv1d_forward<float>(y1.data(), xt.data(), w.data(), nullptr, s);
+    double early = 0, direct = 0;
+    for (int64_t n = 0; n < s.B; ++n)
+      for (int64_t co = 0; co < s.Cout; ++co) {
+        const size_t i = (n * s.Cout + co) * s.T;
+        for (int64_t u = 0; u < t; ++u) early = std::max(early, (double)std::fabs(y0[i + u] - y1[i + u]));
+        direct = std::max(direct, (double)std::fabs(y0[i + t] - y1[i + t]));
+      }
+    EXPECT_GT(direct, 0.5) << "dilation " << dil;
+    EXPECT_LT(early, 1e-4) << "dilation " << dil;
   }
 }
 

@@ -25,6 +25,9 @@ struct Conv1dShape {
   int64_t B = 1, Cin = 1, Cout = 1, T = 1, K = 1;
   int64_t stride = 1, dilation = 1, pad = 0;
   bool causal = false;
+  // causal only: true keeps every output independent of later frames even in rounding (Winograd F(2, 3) at most);
+  // false also allows F(4, 3), whose outputs carry ~1e-7 relative rounding from up to 3 later frames of their tile.
+  bool exact_causal = true;
   Conv1dAlgo algo = Conv1dAlgo::automatic;  // automatic: Winograd where conv1d_winograd_tile(s) != 0
   int64_t pad_left() const { return causal ? (K - 1) * dilation : pad; }
   int64_t pad_right() const { return causal ? 0 : pad; }

@@ -7,6 +7,7 @@
 // N = tiles of the chunk, column b * nT + j; tiles are enumerated as in the header.
 #include "tensor/fused/conv1d_winograd.h"
 
+#include <algorithm>
 #include <cstring>
 #include <string>
 #include <vector>
@@ -106,9 +107,78 @@ void weight_transform_backward(T* dw, const T* dU, const Conv1dShape& s) {
     }
 }
 
+// The tile transforms work per channel on the whole chunk at once, in two steps: a gather (or scatter) between a
+// sample's frame row and "tap rows" P[k][b * nT + j] = row_b[base_j + k d], then the small coefficient matrix
+// applied across the N columns of contiguous tap rows (vectorised). Tiles are walked as (block q, residue r),
+// j = d q + r, base = m d q + r (no division); for d = 1 a tap row is a stride-m gather.
+
+// P[k][j] = row[base_j + k d], k < NTAP, for the nT tiles of one sample; row must cover every frame read.
+template <typename T, int NTAP, int M>
+void gather_taps(T* P, int64_t ldp, const T* row, int64_t nT, int64_t d) {
+  if (d == 1) {
+    for (int k = 0; k < NTAP; ++k)
+      for (int64_t j = 0; j < nT; ++j) P[k * ldp + j] = row[M * j + k];
+    return;
+  }
+  for (int k = 0; k < NTAP; ++k) {
+    T* p = P + k * ldp;
+    for (int64_t j0 = 0, base0 = k * d; j0 < nT; j0 += d, base0 += M * d) {
+      const int64_t rn = nT - j0 < d ? nT - j0 : d;
+      const T* src = row + base0;
+      for (int64_t r = 0; r < rn; ++r) p[j0 + r] = src[r];
+    }
+  }
+}
+
+// row[base_j + k d] (+)= P[k][j]: the inverse of gather_taps. Add = true accumulates (tiles overlap; k outer, so
+// the order of the sums is fixed), Add = false writes (the output frames of distinct tiles are distinct).
+template <typename T, int NTAP, int M, bool Add>
+void scatter_taps(T* row, const T* P, int64_t ldp, int64_t nT, int64_t d) {
+  if (d == 1) {
+    for (int k = 0; k < NTAP; ++k)
+      for (int64_t j = 0; j < nT; ++j) row[M * j + k] = Add ? row[M * j + k] + P[k * ldp + j] : P[k * ldp + j];
+    return;
+  }
+  for (int k = 0; k < NTAP; ++k) {
+    const T* p = P + k * ldp;
+    for (int64_t j0 = 0, base0 = k * d; j0 < nT; j0 += d, base0 += M * d) {
+      const int64_t rn = nT - j0 < d ? nT - j0 : d;
+      T* dst = row + base0;
+      for (int64_t r = 0; r < rn; ++r) dst[r] = Add ? dst[r] + p[j0 + r] : p[j0 + r];
+    }
+  }
+}
+
+// out[i][n] = sum_k C[i][k] in[k][n] for n < N (Transposed: C[k][i]); the coefficients are compile-time constants.
+template <typename T, int R, int K, bool Transposed, typename Mat>
+void combine_rows(T* out, int64_t ldo, const T* in, int64_t ldi, int64_t N, const Mat& C) {
+#pragma GCC unroll 6
+  for (int i = 0; i < R; ++i) {
+    T* o = out + i * ldo;
+    for (int64_t n = 0; n < N; ++n) {
+      T acc = 0;
+#pragma GCC unroll 6
+      for (int k = 0; k < K; ++k) acc += (T)(Transposed ? C[k][i] : C[i][k]) * in[k * ldi + n];
+      o[n] = acc;
+    }
+  }
+}
+
+// The rows of consecutive samples of one channel are C * T floats apart (a new page each): without a prefetch every
+// row starts with a cache miss that the hardware prefetchers cannot predict (~40% of a transform's time).
+template <typename T>
+inline void prefetch_row(const T* p, int64_t n, bool write) {
+  constexpr int64_t step = 64 / sizeof(T);
+  for (int64_t i = 0; i < n; i += step) {
+    if (write)
+      __builtin_prefetch(p + i, 1);
+    else
+      __builtin_prefetch(p + i, 0);
+  }
+}
+
 // V[i][ci, b * nT + j] = sum_k BT[i][k] xpad[b0 + b, ci, base_j + k d]. Each row is first copied into a padded
-// row (replicate/zero frames on the left, zeros on the right) so that tiles are read without bounds checks; tiles
-// are walked as (block q, residue r), j = d q + r, base = m d q + r (no division).
+// row (replicate/zero frames on the left, zeros on the right) so that tiles are gathered without bounds checks.
 template <typename T, int M>
 void input_transform(T* V, const T* inp, const Conv1dShape& s, const Geo& g, int64_t b0, int64_t nb) {
   using W = Wino<M>;
@@ -116,44 +186,22 @@ void input_transform(T* V, const T* inp, const Conv1dShape& s, const Geo& g, int
   const int nt = fused_threads(W::A * s.Cin * g.N);
 #pragma omp parallel num_threads(nt) if (nt > 1)
   {
-    std::vector<T> xp((size_t)L);
-#pragma omp for collapse(2) schedule(static)
-    for (int64_t ci = 0; ci < s.Cin; ++ci)
+    std::vector<T> xp((size_t)L), P((size_t)(W::A * g.N));
+#pragma omp for schedule(static)
+    for (int64_t ci = 0; ci < s.Cin; ++ci) {
       for (int64_t b = 0; b < nb; ++b) {
         const T* x = inp + ((b0 + b) * s.Cin + ci) * s.T;
+        if (b + 1 < nb) prefetch_row(x + s.Cin * s.T, s.T, false);
         const T left = s.causal ? x[0] : (T)0;
         T* xpp = xp.data();
         const int64_t nl = g.padL < L ? g.padL : L, nx = L - nl < s.T ? L - nl : s.T;
         for (int64_t p = 0; p < nl; ++p) xpp[p] = left;
         std::memcpy(xpp + nl, x, (size_t)nx * sizeof(T));
         for (int64_t p = nl + nx; p < L; ++p) xpp[p] = 0;
-        T* v = V + ci * g.N + b * g.nT;
-        if (g.d == 1) {  // tile j reads xp[M j + k]
-          for (int64_t j = 0; j < g.nT; ++j) {
-            const T* src = xpp + M * j;
-            for (int i = 0; i < W::A; ++i) {
-              T acc = 0;
-              for (int k = 0; k < W::A; ++k) acc += (T)W::BT[i][k] * src[k];
-              v[i * ldv + j] = acc;
-            }
-          }
-          continue;
-        }
-        for (int64_t j0 = 0, q = 0; j0 < g.nT; j0 += g.d, ++q) {
-          const int64_t rn = g.nT - j0 < g.d ? g.nT - j0 : g.d;
-          const T* src = xpp + M * g.d * q;
-          T* dst = v + j0;
-          for (int64_t r = 0; r < rn; ++r) {
-            T xv[W::A];
-            for (int k = 0; k < W::A; ++k) xv[k] = src[r + k * g.d];
-            for (int i = 0; i < W::A; ++i) {
-              T acc = 0;
-              for (int k = 0; k < W::A; ++k) acc += (T)W::BT[i][k] * xv[k];
-              dst[i * ldv + r] = acc;
-            }
-          }
-        }
+        gather_taps<T, W::A, M>(P.data() + b * g.nT, g.N, xpp, g.nT, g.d);
       }
+      combine_rows<T, W::A, W::A, false>(V + ci * g.N, ldv, P.data(), g.N, g.N, W::BT);
+    }
   }
 }
 
@@ -165,90 +213,68 @@ void input_transform_backward(T* dinp, const T* dV, const Conv1dShape& s, const 
   const int nt = fused_threads(W::A * s.Cin * g.N);
 #pragma omp parallel num_threads(nt) if (nt > 1)
   {
-    std::vector<T> buf((size_t)L);
-#pragma omp for collapse(2) schedule(static)
-    for (int64_t ci = 0; ci < s.Cin; ++ci)
+    std::vector<T> buf((size_t)L), P((size_t)(W::A * g.N));
+#pragma omp for schedule(static)
+    for (int64_t ci = 0; ci < s.Cin; ++ci) {
+      combine_rows<T, W::A, W::A, true>(P.data(), g.N, dV + ci * g.N, s.Cin * g.N, g.N, W::BT);
       for (int64_t b = 0; b < nb; ++b) {
-        for (auto& e : buf) e = 0;
-        const T* dv = dV + ci * g.N + b * g.nT;
-        for (int64_t j0 = 0, q = 0; j0 < g.nT; j0 += g.d, ++q) {
-          const int64_t rn = g.nT - j0 < g.d ? g.nT - j0 : g.d;
-          T* dst = buf.data() + M * g.d * q;
-          for (int64_t r = 0; r < rn; ++r) {
-            T gi[W::A];
-            for (int i = 0; i < W::A; ++i) gi[i] = dv[i * s.Cin * g.N + j0 + r];
-            for (int k = 0; k < W::A; ++k) {
-              T acc = 0;
-              for (int i = 0; i < W::A; ++i) acc += (T)W::BT[i][k] * gi[i];
-              dst[r + k * g.d] += acc;
-            }
-          }
-        }
+        std::fill(buf.begin(), buf.end(), (T)0);
+        scatter_taps<T, W::A, M, true>(buf.data(), P.data() + b * g.nT, g.N, g.nT, g.d);
         T* dx = dinp + ((b0 + b) * s.Cin + ci) * s.T;
-        for (int64_t t = 0; t < s.T; ++t) dx[t] = buf[(size_t)(t + g.padL)];
+        if (b + 1 < nb) prefetch_row(dx + s.Cin * s.T, s.T, true);
+        std::memcpy(dx, buf.data() + g.padL, (size_t)s.T * sizeof(T));
         if (s.causal)
           for (int64_t p = 0; p < g.padL; ++p) dx[0] += buf[(size_t)p];
       }
+    }
   }
 }
 
-// out[b0 + b, co, base_j + r d] = bias[co] + sum_i AT[r][i] Mx[i][co, b * nT + j] for the frames below To.
+// out[b0 + b, co, base_j + r d] = bias[co] + sum_i AT[r][i] Mx[i][co, b * nT + j] for the frames below To (the
+// rows are written into a scratch row with (m - 1) d frames of slack for the dropped outputs, then copied).
 template <typename T, int M>
 void output_transform(T* out, const T* Mx, const T* bias, const Conv1dShape& s, const Geo& g, int64_t b0,
                       int64_t nb) {
   using W = Wino<M>;
+  const int64_t Lo = M * g.d * ((g.nT + g.d - 1) / g.d);  // frames the tiles cover (>= To)
   const int nt = fused_threads(W::A * s.Cout * g.N);
-#pragma omp parallel for collapse(2) num_threads(nt) schedule(static) if (nt > 1)
-  for (int64_t co = 0; co < s.Cout; ++co)
-    for (int64_t b = 0; b < nb; ++b) {
-      T* y = out + ((b0 + b) * s.Cout + co) * g.To;
+#pragma omp parallel num_threads(nt) if (nt > 1)
+  {
+    std::vector<T> row((size_t)Lo), Y((size_t)(M * g.N));
+#pragma omp for schedule(static)
+    for (int64_t co = 0; co < s.Cout; ++co) {
+      combine_rows<T, M, W::A, false>(Y.data(), g.N, Mx + co * g.N, s.Cout * g.N, g.N, W::AT);
       const T bv = bias ? bias[co] : (T)0;
-      const T* mx = Mx + co * g.N + b * g.nT;
-      for (int64_t j0 = 0, q = 0; j0 < g.nT; j0 += g.d, ++q) {
-        const int64_t rn = g.nT - j0 < g.d ? g.nT - j0 : g.d;
-        for (int64_t rr = 0; rr < rn; ++rr) {
-          T mi[W::A];
-          for (int i = 0; i < W::A; ++i) mi[i] = mx[i * s.Cout * g.N + j0 + rr];
-          const int64_t base = M * g.d * q + rr;
-          for (int r = 0; r < M; ++r) {
-            const int64_t t = base + r * g.d;
-            if (t >= g.To) break;
-            T acc = bv;
-            for (int i = 0; i < W::A; ++i) acc += (T)W::AT[r][i] * mi[i];
-            y[t] = acc;
-          }
-        }
+      for (int64_t b = 0; b < nb; ++b) {
+        scatter_taps<T, M, M, false>(row.data(), Y.data() + b * g.nT, g.N, g.nT, g.d);
+        T* y = out + ((b0 + b) * s.Cout + co) * g.To;
+        if (b + 1 < nb) prefetch_row(y + s.Cout * g.To, g.To, true);
+        for (int64_t t = 0; t < g.To; ++t) y[t] = row[(size_t)t] + bv;
       }
     }
+  }
 }
 
 // dM[i][co, b * nT + j] = sum_r AT[r][i] dy[b0 + b, co, base_j + r d] (0 for frames at or past To).
 template <typename T, int M>
 void output_transform_backward(T* dM, const T* dout, const Conv1dShape& s, const Geo& g, int64_t b0, int64_t nb) {
   using W = Wino<M>;
+  const int64_t Lo = M * g.d * ((g.nT + g.d - 1) / g.d);  // frames the tiles cover (>= To)
   const int nt = fused_threads(W::A * s.Cout * g.N);
-#pragma omp parallel for collapse(2) num_threads(nt) schedule(static) if (nt > 1)
-  for (int64_t co = 0; co < s.Cout; ++co)
-    for (int64_t b = 0; b < nb; ++b) {
-      const T* dy = dout + ((b0 + b) * s.Cout + co) * g.To;
-      T* dm = dM + co * g.N + b * g.nT;
-      for (int64_t j0 = 0, q = 0; j0 < g.nT; j0 += g.d, ++q) {
-        const int64_t rn = g.nT - j0 < g.d ? g.nT - j0 : g.d;
-        for (int64_t rr = 0; rr < rn; ++rr) {
-          const int64_t base = M * g.d * q + rr;
-          T dr[M];
-          for (int r = 0; r < M; ++r) {
-            const int64_t t = base + r * g.d;
-            dr[r] = t < g.To ? dy[t] : (T)0;
-          }
-          for (int i = 0; i < W::A; ++i) {
-            T acc = 0;
-            for (int r = 0; r < M; ++r) acc += (T)W::AT[r][i] * dr[r];
-            dm[i * s.Cout * g.N + j0 + rr] = acc;
-          }
-        }
+#pragma omp parallel num_threads(nt) if (nt > 1)
+  {
+    std::vector<T> row((size_t)Lo, (T)0), D((size_t)(M * g.N));
+#pragma omp for schedule(static)
+    for (int64_t co = 0; co < s.Cout; ++co) {
+      for (int64_t b = 0; b < nb; ++b) {
+        const T* dy = dout + ((b0 + b) * s.Cout + co) * g.To;
+        if (b + 1 < nb) prefetch_row(dy + s.Cout * g.To, g.To, false);
+        std::memcpy(row.data(), dy, (size_t)g.To * sizeof(T));
+        gather_taps<T, M, M>(D.data() + b * g.nT, g.N, row.data(), g.nT, g.d);
       }
+      combine_rows<T, W::A, M, true>(dM + co * g.N, s.Cout * g.N, D.data(), g.N, g.N, W::AT);
     }
+  }
 }
 
 template <typename T, int M>
@@ -324,7 +350,8 @@ int conv1d_winograd_tile(const Conv1dShape& s) {
   const int64_t To = s.out_len();
   if (s.K != 3 || s.stride != 1 || s.Cin < 8 || s.Cout < 8) return 0;
   const int64_t c2 = 4 * tiles_per_sample(To, s.dilation, 2), c4 = 6 * tiles_per_sample(To, s.dilation, 4);
-  const int m = !s.causal && c4 <= c2 ? 4 : 2;  // causal: F(2, 3) only (exactly causal, see the header)
+  const bool f4 = !s.causal || !s.exact_causal;  // exactly causal: F(2, 3) only (see the header)
+  const int m = f4 && c4 <= c2 ? 4 : 2;
   const int64_t cost = m == 4 ? c4 : c2;
   return 10 * cost <= 8 * 3 * To ? m : 0;  // pays only below 80% of im2col's 3 * To multiply-adds per channel pair
 }

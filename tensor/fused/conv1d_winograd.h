@@ -11,7 +11,8 @@
 // Causality: in F(2, 3) output 0 of a tile is built only from the transformed rows that do not contain the
 // tile's last input frame, so a causal conv's output never depends on a later frame, not even by rounding. In
 // F(4, 3) every output of a tile mixes all 6 input frames (the later ones cancel exactly in real arithmetic,
-// not in float: ~1e-7 relative leaks), so the automatic choice uses F(4, 3) only for non-causal convs.
+// not in float: ~1e-7 relative leaks), so the automatic choice uses F(4, 3) only for non-causal convs and for
+// causal ones marked Conv1dShape::exact_causal = false (the VBB's residual blocks, whose GroupNorm sees every frame).
 // Numerics: F(2, 3) uses the points 0, 1, -1 (coefficients 1 and 1/2, as accurate as the direct sum);
 // F(4, 3) the points 0, 1, -1, 2, -2 (coefficients up to 5 and 1/24: float error about 10x the direct sum's,
 // ~1e-6 relative on unit-scale data with 256 channels).
@@ -20,7 +21,7 @@
 
 namespace t2m::fused {
 
-// Tile size the automatic dispatch would use for s: 2 or 4 (4 never for causal convs) when K == 3, stride == 1,
+// Tile size the automatic dispatch would use for s: 2 or 4 (4 never for exact_causal causal convs) when K == 3, stride == 1,
 // Cin, Cout >= 8 and F(m, 3) needs at most 80% of im2col's multiply-adds (counting dropped outputs); 0 when
 // Winograd does not apply or does not pay.
 int conv1d_winograd_tile(const Conv1dShape& s);
