@@ -11,7 +11,9 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <memory>
 #include <string>
+#include <tuple>
 
 #include "tensor/gemm_kernel.h"
 #include "tensor/parallel.h"
@@ -248,8 +250,31 @@ void macro_kernel(const MicroKernel<T>& uk, int64_t mc, int64_t nc, int64_t kc, 
   }
 }
 
-// Threads split C by rows (each packs its own A blocks; the B block is packed once, cooperatively, and shared)
-// or, when M is too short for that, by columns (each packs its own B panels and the whole A block).
+// The (row block, B panel) work items of one thread's share of C in one (jc, pc) round: front and back indices in
+// one atomic word (front in the low 32 bits). The owner takes items from the front; a thread that has finished its
+// own share takes them from the back (work stealing: on these VMs one vCPU is often 20% slower than the other for
+// seconds at a time, and a static split makes the faster one wait at every barrier).
+struct alignas(64) StealRange {
+  std::atomic<uint64_t> fb{0};
+  void reset(int64_t n) { fb.store(uint64_t(n) << 32, std::memory_order_relaxed); }
+  // Front item (owner) or back item (thief), -1 when none is left.
+  int64_t take(bool back) {
+    uint64_t cur = fb.load(std::memory_order_relaxed);
+    for (;;) {
+      const uint64_t f = cur & 0xffffffffu, b = cur >> 32;
+      if (f >= b) return -1;
+      const uint64_t next = back ? (f | ((b - 1) << 32)) : ((f + 1) | (b << 32));
+      if (fb.compare_exchange_weak(cur, next, std::memory_order_acq_rel, std::memory_order_relaxed))
+        return int64_t(back ? b - 1 : f);
+    }
+  }
+};
+
+// Threads split C by rows (each packs its own A blocks; the B block is packed once, cooperatively, and shared;
+// once a thread's rows are done it steals B panels of the others' rows, packing their A block itself) or, when M
+// is too short for that, by columns (each packs its own B panels and the whole A block). Every C tile is computed
+// by one kernel call per K block from the same packed data whichever thread takes it, so stealing does not
+// change a bit of the result.
 template <typename T>
 void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
   const int64_t mr = uk.mr, nr = uk.nr, MC = uk.mc, KC = uk.kc, NC = uk.nc;
@@ -257,40 +282,67 @@ void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
   nt = int(std::max<int64_t>(1, std::min<int64_t>(nt, std::max(m_tiles, n_tiles))));
   const bool split_m = nt == 1 || m_tiles >= 4 * nt || m_tiles >= n_tiles;
   T* shared_bp = split_m ? tls_pack_b.get<T>(KC * round_up(std::min(NC, g.N), nr)) : nullptr;
+  std::unique_ptr<StealRange[]> ranges(split_m && nt > 1 ? new StealRange[nt] : nullptr);
 #pragma omp parallel num_threads(nt) if (nt > 1)
   {
     const int t = omp_get_thread_num(), team = omp_get_num_threads();
+    auto rows_of = [&](int u) {  // thread u's share of the rows (split_m)
+      return std::make_pair(std::min(g.M, m_tiles * u / team * mr), std::min(g.M, m_tiles * (u + 1) / team * mr));
+    };
     int64_t m0 = 0, m1 = g.M, n0 = 0, n1 = g.N;
     if (split_m) {
-      m0 = std::min(g.M, m_tiles * t / team * mr);
-      m1 = std::min(g.M, m_tiles * (t + 1) / team * mr);
+      std::tie(m0, m1) = rows_of(t);
     } else {
       n0 = std::min(g.N, n_tiles * t / team * nr);
       n1 = std::min(g.N, n_tiles * (t + 1) / team * nr);
     }
-    T* ap = tls_pack_a.get<T>(round_up(std::min(MC, std::max<int64_t>(m1 - m0, 1)), mr) * KC);
+    T* ap = tls_pack_a.get<T>(round_up(std::min(MC, std::max<int64_t>(split_m ? g.M : m1 - m0, 1)), mr) * KC);
     T* bp = split_m ? shared_bp : tls_pack_b.get<T>(KC * round_up(std::min(NC, std::max<int64_t>(n1 - n0, 1)), nr));
     for (int64_t jc = n0; jc < n1; jc += NC) {
       const int64_t nc = std::min(NC, n1 - jc);
       for (int64_t pc = 0; pc < g.K; pc += KC) {
         const int64_t kc = std::min(KC, g.K - pc);
         const T beta = pc == 0 ? g.beta : T(1);
-        if (split_m) {
-          const int64_t panels = ceil_div(nc, nr);
-#pragma omp for schedule(static)
-          for (int64_t p = 0; p < panels; ++p)
-            uk.pack_b(g.tb, kc, std::min(nr, nc - p * nr), g.b_at(pc, jc + p * nr), g.ldb, bp + p * kc * nr);
-        } else {
+        if (!split_m) {
           uk.pack_b(g.tb, kc, nc, g.b_at(pc, jc), g.ldb, bp);
+          for (int64_t ic = m0; ic < m1; ic += MC) {
+            const int64_t mc = std::min(MC, m1 - ic);
+            uk.pack_a(g.ta, mc, kc, g.a_at(ic, pc), g.lda, ap);
+            macro_kernel(uk, mc, nc, kc, ap, bp, g.C + ic * g.ldc + jc, g.ldc, g.alpha, beta);
+          }
+          continue;
         }
-        for (int64_t ic = m0; ic < m1; ic += MC) {
-          const int64_t mc = std::min(MC, m1 - ic);
-          uk.pack_a(g.ta, mc, kc, g.a_at(ic, pc), g.lda, ap);
-          macro_kernel(uk, mc, nc, kc, ap, bp, g.C + ic * g.ldc + jc, g.ldc, g.alpha, beta);
+        const int64_t panels = ceil_div(nc, nr);
+        if (ranges) ranges[t].reset(ceil_div(m1 - m0, MC) * panels);  // published by the barrier below
+#pragma omp for schedule(static)
+        for (int64_t p = 0; p < panels; ++p)
+          uk.pack_b(g.tb, kc, std::min(nr, nc - p * nr), g.b_at(pc, jc + p * nr), g.ldb, bp + p * kc * nr);
+        // Item i of thread u: row block i / panels of u's rows, B panel i % panels. Own items first, then steal.
+        if (!ranges) {  // one thread: its rows in order
+          for (int64_t ic = m0; ic < m1; ic += MC) {
+            const int64_t mc = std::min(MC, m1 - ic);
+            uk.pack_a(g.ta, mc, kc, g.a_at(ic, pc), g.lda, ap);
+            macro_kernel(uk, mc, nc, kc, ap, bp, g.C + ic * g.ldc + jc, g.ldc, g.alpha, beta);
+          }
+        } else {
+          int64_t packed_ic = -1;  // first row of the block whose A is in ap
+          for (int k = 0; k < team; ++k) {
+            const int u = (t + k) % team;
+            const int64_t r0 = rows_of(u).first, r1 = rows_of(u).second;
+            for (int64_t item; (item = ranges[u].take(k != 0)) >= 0;) {
+              const int64_t ic = r0 + item / panels * MC, mc = std::min(MC, r1 - ic), p = item % panels;
+              if (ic != packed_ic) {
+                uk.pack_a(g.ta, mc, kc, g.a_at(ic, pc), g.lda, ap);
+                packed_ic = ic;
+              }
+              macro_kernel(uk, mc, std::min(nr, nc - p * nr), kc, ap, bp + p * kc * nr,
+                           g.C + ic * g.ldc + jc + p * nr, g.ldc, g.alpha, beta);
+            }
+          }
         }
         // The shared B block is re-packed next round: wait until everyone is done with it (the region's closing
         // barrier covers the last round).
-        if (split_m && (jc + nc < n1 || pc + kc < g.K)) {
+        if (jc + nc < n1 || pc + kc < g.K) {
 #pragma omp barrier
         }
       }
@@ -340,7 +392,7 @@ void gemm_batch(bool ta, bool tb, int64_t batch, int64_t M, int64_t N, int64_t K
   // into the same C) stays sequential.
   if (nt > 1 && batch >= nt && per < (int64_t(1) << 21) && sc != 0) {
     select_kernel<T>();  // initialise the CPU-feature statics before the threads start
-#pragma omp parallel for schedule(static) num_threads(nt)
+#pragma omp parallel for schedule(dynamic, 1) num_threads(nt)  // whole products: any order gives the same bits
     for (int64_t b = 0; b < batch; ++b) gemm_run(at(b), 1);
     return;
   }
