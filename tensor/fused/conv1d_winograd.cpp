@@ -7,10 +7,7 @@
 // N = tiles of the chunk, column b * nT + j; tiles are enumerated as in the header.
 #include "tensor/fused/conv1d_winograd.h"
 
-#include <algorithm>
-#include <cstring>
 #include <string>
-#include <vector>
 
 #include "tensor/fused/kernel_util.h"
 #include "tensor/fused/scratch.h"
@@ -164,18 +161,10 @@ void combine_rows(T* out, int64_t ldo, const T* in, int64_t ldi, int64_t N, cons
   }
 }
 
-// The rows of consecutive samples of one channel are C * T floats apart (a new page each): without a prefetch every
-// row starts with a cache miss that the hardware prefetchers cannot predict (~40% of a transform's time).
-template <typename T>
-inline void prefetch_row(const T* p, int64_t n, bool write) {
-  constexpr int64_t step = 64 / sizeof(T);
-  for (int64_t i = 0; i < n; i += step) {
-    if (write)
-      __builtin_prefetch(p + i, 1);
-    else
-      __builtin_prefetch(p + i, 0);
-  }
-}
+// The transforms go through channels in blocks of kChanBlock: for one sample the rows of a block are adjacent in
+// memory (kChanBlock * T floats read or written in order), where one channel at a time would touch a new page per
+// sample. Per-thread buffers: scratch slot 4 (tap rows of the block) and 5 (one padded frame row).
+constexpr int64_t kChanBlock = 8;
 
 // V[i][ci, b * nT + j] = sum_k BT[i][k] xpad[b0 + b, ci, base_j + k d]. Each row is first copied into a padded
 // row (replicate/zero frames on the left, zeros on the right) so that tiles are gathered without bounds checks.
@@ -183,24 +172,27 @@ template <typename T, int M>
 void input_transform(T* V, const T* inp, const Conv1dShape& s, const Geo& g, int64_t b0, int64_t nb) {
   using W = Wino<M>;
   const int64_t L = g.To + (W::A - 1) * g.d, ldv = s.Cin * g.N;  // padded frames any tile touches
+  const int64_t nblk = (s.Cin + kChanBlock - 1) / kChanBlock, ldp = W::A * g.N;
   const int nt = fused_threads(W::A * s.Cin * g.N);
 #pragma omp parallel num_threads(nt) if (nt > 1)
   {
-    std::vector<T> xp((size_t)L), P((size_t)(W::A * g.N));
+    T* P = fused_scratch<T>(4, kChanBlock * ldp);
+    T* xp = fused_scratch<T>(5, L);
 #pragma omp for schedule(static)
-    for (int64_t ci = 0; ci < s.Cin; ++ci) {
-      for (int64_t b = 0; b < nb; ++b) {
-        const T* x = inp + ((b0 + b) * s.Cin + ci) * s.T;
-        if (b + 1 < nb) prefetch_row(x + s.Cin * s.T, s.T, false);
-        const T left = s.causal ? x[0] : (T)0;
-        T* xpp = xp.data();
-        const int64_t nl = g.padL < L ? g.padL : L, nx = L - nl < s.T ? L - nl : s.T;
-        for (int64_t p = 0; p < nl; ++p) xpp[p] = left;
-        std::memcpy(xpp + nl, x, (size_t)nx * sizeof(T));
-        for (int64_t p = nl + nx; p < L; ++p) xpp[p] = 0;
-        gather_taps<T, W::A, M>(P.data() + b * g.nT, g.N, xpp, g.nT, g.d);
-      }
-      combine_rows<T, W::A, W::A, false>(V + ci * g.N, ldv, P.data(), g.N, g.N, W::BT);
+    for (int64_t cb = 0; cb < nblk; ++cb) {
+      const int64_t c0 = cb * kChanBlock, cn = s.Cin - c0 < kChanBlock ? s.Cin - c0 : kChanBlock;
+      for (int64_t b = 0; b < nb; ++b)
+        for (int64_t cl = 0; cl < cn; ++cl) {
+          const T* x = inp + ((b0 + b) * s.Cin + c0 + cl) * s.T;
+          const T left = s.causal ? x[0] : (T)0;
+          const int64_t nl = g.padL < L ? g.padL : L, nx = L - nl < s.T ? L - nl : s.T;
+          for (int64_t p = 0; p < nl; ++p) xp[p] = left;
+          for (int64_t p = 0; p < nx; ++p) xp[nl + p] = x[p];
+          for (int64_t p = nl + nx; p < L; ++p) xp[p] = 0;
+          gather_taps<T, W::A, M>(P + cl * ldp + b * g.nT, g.N, xp, g.nT, g.d);
+        }
+      for (int64_t cl = 0; cl < cn; ++cl)
+        combine_rows<T, W::A, W::A, false>(V + (c0 + cl) * g.N, ldv, P + cl * ldp, g.N, g.N, W::BT);
     }
   }
 }
@@ -210,22 +202,26 @@ template <typename T, int M>
 void input_transform_backward(T* dinp, const T* dV, const Conv1dShape& s, const Geo& g, int64_t b0, int64_t nb) {
   using W = Wino<M>;
   const int64_t L = g.To + (W::A - 1) * g.d;  // padded frames any tile touches (>= T + padL)
+  const int64_t nblk = (s.Cin + kChanBlock - 1) / kChanBlock, ldp = W::A * g.N;
   const int nt = fused_threads(W::A * s.Cin * g.N);
 #pragma omp parallel num_threads(nt) if (nt > 1)
   {
-    std::vector<T> buf((size_t)L), P((size_t)(W::A * g.N));
+    T* P = fused_scratch<T>(4, kChanBlock * ldp);
+    T* buf = fused_scratch<T>(5, L);
 #pragma omp for schedule(static)
-    for (int64_t ci = 0; ci < s.Cin; ++ci) {
-      combine_rows<T, W::A, W::A, true>(P.data(), g.N, dV + ci * g.N, s.Cin * g.N, g.N, W::BT);
-      for (int64_t b = 0; b < nb; ++b) {
-        std::fill(buf.begin(), buf.end(), (T)0);
-        scatter_taps<T, W::A, M, true>(buf.data(), P.data() + b * g.nT, g.N, g.nT, g.d);
-        T* dx = dinp + ((b0 + b) * s.Cin + ci) * s.T;
-        if (b + 1 < nb) prefetch_row(dx + s.Cin * s.T, s.T, true);
-        std::memcpy(dx, buf.data() + g.padL, (size_t)s.T * sizeof(T));
-        if (s.causal)
-          for (int64_t p = 0; p < g.padL; ++p) dx[0] += buf[(size_t)p];
-      }
+    for (int64_t cb = 0; cb < nblk; ++cb) {
+      const int64_t c0 = cb * kChanBlock, cn = s.Cin - c0 < kChanBlock ? s.Cin - c0 : kChanBlock;
+      for (int64_t cl = 0; cl < cn; ++cl)
+        combine_rows<T, W::A, W::A, true>(P + cl * ldp, g.N, dV + (c0 + cl) * g.N, s.Cin * g.N, g.N, W::BT);
+      for (int64_t b = 0; b < nb; ++b)
+        for (int64_t cl = 0; cl < cn; ++cl) {
+          for (int64_t p = 0; p < L; ++p) buf[p] = 0;
+          scatter_taps<T, W::A, M, true>(buf, P + cl * ldp + b * g.nT, g.N, g.nT, g.d);
+          T* dx = dinp + ((b0 + b) * s.Cin + c0 + cl) * s.T;
+          for (int64_t t = 0; t < s.T; ++t) dx[t] = buf[g.padL + t];
+          if (s.causal)
+            for (int64_t p = 0; p < g.padL; ++p) dx[0] += buf[p];
+        }
     }
   }
 }
@@ -237,20 +233,24 @@ void output_transform(T* out, const T* Mx, const T* bias, const Conv1dShape& s, 
                       int64_t nb) {
   using W = Wino<M>;
   const int64_t Lo = M * g.d * ((g.nT + g.d - 1) / g.d);  // frames the tiles cover (>= To)
+  const int64_t nblk = (s.Cout + kChanBlock - 1) / kChanBlock, ldp = M * g.N;
   const int nt = fused_threads(W::A * s.Cout * g.N);
 #pragma omp parallel num_threads(nt) if (nt > 1)
   {
-    std::vector<T> row((size_t)Lo), Y((size_t)(M * g.N));
+    T* Y = fused_scratch<T>(4, kChanBlock * ldp);
+    T* row = fused_scratch<T>(5, Lo);
 #pragma omp for schedule(static)
-    for (int64_t co = 0; co < s.Cout; ++co) {
-      combine_rows<T, M, W::A, false>(Y.data(), g.N, Mx + co * g.N, s.Cout * g.N, g.N, W::AT);
-      const T bv = bias ? bias[co] : (T)0;
-      for (int64_t b = 0; b < nb; ++b) {
-        scatter_taps<T, M, M, false>(row.data(), Y.data() + b * g.nT, g.N, g.nT, g.d);
-        T* y = out + ((b0 + b) * s.Cout + co) * g.To;
-        if (b + 1 < nb) prefetch_row(y + s.Cout * g.To, g.To, true);
-        for (int64_t t = 0; t < g.To; ++t) y[t] = row[(size_t)t] + bv;
-      }
+    for (int64_t cb = 0; cb < nblk; ++cb) {
+      const int64_t c0 = cb * kChanBlock, cn = s.Cout - c0 < kChanBlock ? s.Cout - c0 : kChanBlock;
+      for (int64_t cl = 0; cl < cn; ++cl)
+        combine_rows<T, M, W::A, false>(Y + cl * ldp, g.N, Mx + (c0 + cl) * g.N, s.Cout * g.N, g.N, W::AT);
+      for (int64_t b = 0; b < nb; ++b)
+        for (int64_t cl = 0; cl < cn; ++cl) {
+          scatter_taps<T, M, M, false>(row, Y + cl * ldp + b * g.nT, g.N, g.nT, g.d);
+          const T bv = bias ? bias[c0 + cl] : (T)0;
+          T* y = out + ((b0 + b) * s.Cout + c0 + cl) * g.To;
+          for (int64_t t = 0; t < g.To; ++t) y[t] = row[t] + bv;
+        }
     }
   }
 }
@@ -260,19 +260,24 @@ template <typename T, int M>
 void output_transform_backward(T* dM, const T* dout, const Conv1dShape& s, const Geo& g, int64_t b0, int64_t nb) {
   using W = Wino<M>;
   const int64_t Lo = M * g.d * ((g.nT + g.d - 1) / g.d);  // frames the tiles cover (>= To)
+  const int64_t nblk = (s.Cout + kChanBlock - 1) / kChanBlock, ldp = M * g.N;
   const int nt = fused_threads(W::A * s.Cout * g.N);
 #pragma omp parallel num_threads(nt) if (nt > 1)
   {
-    std::vector<T> row((size_t)Lo, (T)0), D((size_t)(M * g.N));
+    T* D = fused_scratch<T>(4, kChanBlock * ldp);
+    T* row = fused_scratch<T>(5, Lo);
+    for (int64_t t = g.To; t < Lo; ++t) row[t] = 0;  // frames past To: zero gradient
 #pragma omp for schedule(static)
-    for (int64_t co = 0; co < s.Cout; ++co) {
-      for (int64_t b = 0; b < nb; ++b) {
-        const T* dy = dout + ((b0 + b) * s.Cout + co) * g.To;
-        if (b + 1 < nb) prefetch_row(dy + s.Cout * g.To, g.To, false);
-        std::memcpy(row.data(), dy, (size_t)g.To * sizeof(T));
-        gather_taps<T, M, M>(D.data() + b * g.nT, g.N, row.data(), g.nT, g.d);
-      }
-      combine_rows<T, W::A, M, true>(dM + co * g.N, s.Cout * g.N, D.data(), g.N, g.N, W::AT);
+    for (int64_t cb = 0; cb < nblk; ++cb) {
+      const int64_t c0 = cb * kChanBlock, cn = s.Cout - c0 < kChanBlock ? s.Cout - c0 : kChanBlock;
+      for (int64_t b = 0; b < nb; ++b)
+        for (int64_t cl = 0; cl < cn; ++cl) {
+          const T* dy = dout + ((b0 + b) * s.Cout + c0 + cl) * g.To;
+          for (int64_t t = 0; t < g.To; ++t) row[t] = dy[t];
+          gather_taps<T, M, M>(D + cl * ldp + b * g.nT, g.N, row, g.nT, g.d);
+        }
+      for (int64_t cl = 0; cl < cn; ++cl)
+        combine_rows<T, W::A, M, true>(dM + (c0 + cl) * g.N, s.Cout * g.N, D + cl * ldp, g.N, g.N, W::AT);
     }
   }
 }
