@@ -48,7 +48,11 @@ void dropout_forward(T* y, uint8_t* keep, const T* x, int64_t n, uint64_t seed, 
                      T scale) {
   constexpr int64_t kChunk = 64;  // Philox blocks generated at once (philox4x32_blocks)
   const int64_t nb = (n + 3) / 4, nch = (nb + kChunk - 1) / kChunk;
-  constexpr double k2m32 = 1.0 / 4294967296.0;
+  // u_j = w_j 2^-32 < pkeep  <=>  w_j < ceil(pkeep 2^32) (exact: w_j is an integer, the scaling a power of two);
+  // an integer compare vectorises where the double one does not.
+  const double lim = std::ceil(pkeep * 4294967296.0);
+  const bool keep_all = lim > 4294967295.0;
+  const uint32_t thresh = keep_all ? 0u : (uint32_t)(lim > 0.0 ? lim : 0.0);
 #pragma omp parallel for schedule(static) num_threads(threads_for(n))
   for (int64_t ch = 0; ch < nch; ++ch) {
     uint32_t w[4 * kChunk];
@@ -56,7 +60,7 @@ void dropout_forward(T* y, uint8_t* keep, const T* x, int64_t n, uint64_t seed, 
     philox4x32_blocks(seed, base + (uint64_t)b0, cnt, w);
     const int64_t j0 = 4 * b0, j1 = 4 * (b0 + cnt) < n ? 4 * (b0 + cnt) : n;
     for (int64_t j = j0; j < j1; ++j) {
-      const bool k = (double)w[j - j0] * k2m32 < pkeep;
+      const bool k = keep_all || w[j - j0] < thresh;
       keep[j] = k;
       y[j] = k ? x[j] * scale : (T)0;
     }
