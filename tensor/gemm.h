@@ -2,7 +2,10 @@
 //
 // op(A) is M×K (A is M×K, or K×M when trans_a), op(B) is K×N (B is K×N, or N×K when trans_b); lda/ldb/ldc are
 // row strides in elements. float: our packed-panel kernel with an AVX-512 micro-kernel chosen at run time
-// (AVX2+FMA fallback), OpenMP across blocks. double: a blocked kernel (used by gradchecks; speed secondary).
+// (AVX2+FMA fallback), OpenMP across blocks with work stealing between the threads (a thread that finishes its
+// share takes the others' remaining panels). Results are bit-identical for any thread count and any steal order:
+// every C tile is computed by one kernel call per K block from the same packed data. double: a blocked kernel
+// (used by gradchecks; speed secondary).
 // beta == 0 means C is written without being read (NaNs in C do not propagate).
 #pragma once
 #include <cstdint>
