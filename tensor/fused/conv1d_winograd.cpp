@@ -163,67 +163,68 @@ void combine_rows(T* out, int64_t ldo, const T* in, int64_t ldi, int64_t N, cons
 
 // The transforms go through channels in blocks of kChanBlock: for one sample the rows of a block are adjacent in
 // memory (kChanBlock * T floats read or written in order), where one channel at a time would touch a new page per
-// sample. Per-thread buffers: scratch slot 4 (tap rows of the block) and 5 (one padded frame row).
+// sample.
 constexpr int64_t kChanBlock = 8;
+
+// f(c0, cn, blk, row) for the channel blocks [c0, c0 + cn) of C channels, split statically over the threads; blk
+// (kChanBlock * ldb elements: the block's tap rows) and row (nrow elements: one frame row) are the calling thread's
+// scratch (slots 4 and 5; the callers of the transforms hold slots 0-3).
+template <typename T, typename F>
+void for_channel_blocks(int64_t C, int64_t work, int64_t ldb, int64_t nrow, F&& f) {
+  const int64_t nblk = (C + kChanBlock - 1) / kChanBlock;
+  const int nt = fused_threads(work);
+#pragma omp parallel num_threads(nt) if (nt > 1)
+  {
+    T* blk = fused_scratch<T>(4, kChanBlock * ldb);
+    T* row = fused_scratch<T>(5, nrow);
+#pragma omp for schedule(static)
+    for (int64_t cb = 0; cb < nblk; ++cb) {
+      const int64_t c0 = cb * kChanBlock;
+      f(c0, C - c0 < kChanBlock ? C - c0 : kChanBlock, blk, row);
+    }
+  }
+}
 
 // V[i][ci, b * nT + j] = sum_k BT[i][k] xpad[b0 + b, ci, base_j + k d]. Each row is first copied into a padded
 // row (replicate/zero frames on the left, zeros on the right) so that tiles are gathered without bounds checks.
 template <typename T, int M>
 void input_transform(T* V, const T* inp, const Conv1dShape& s, const Geo& g, int64_t b0, int64_t nb) {
   using W = Wino<M>;
-  const int64_t L = g.To + (W::A - 1) * g.d, ldv = s.Cin * g.N;  // padded frames any tile touches
-  const int64_t nblk = (s.Cin + kChanBlock - 1) / kChanBlock, ldp = W::A * g.N;
-  const int nt = fused_threads(W::A * s.Cin * g.N);
-#pragma omp parallel num_threads(nt) if (nt > 1)
-  {
-    T* P = fused_scratch<T>(4, kChanBlock * ldp);
-    T* xp = fused_scratch<T>(5, L);
-#pragma omp for schedule(static)
-    for (int64_t cb = 0; cb < nblk; ++cb) {
-      const int64_t c0 = cb * kChanBlock, cn = s.Cin - c0 < kChanBlock ? s.Cin - c0 : kChanBlock;
-      for (int64_t b = 0; b < nb; ++b)
-        for (int64_t cl = 0; cl < cn; ++cl) {
-          const T* x = inp + ((b0 + b) * s.Cin + c0 + cl) * s.T;
-          const T left = s.causal ? x[0] : (T)0;
-          const int64_t nl = g.padL < L ? g.padL : L, nx = L - nl < s.T ? L - nl : s.T;
-          for (int64_t p = 0; p < nl; ++p) xp[p] = left;
-          for (int64_t p = 0; p < nx; ++p) xp[nl + p] = x[p];
-          for (int64_t p = nl + nx; p < L; ++p) xp[p] = 0;
-          gather_taps<T, W::A, M>(P + cl * ldp + b * g.nT, g.N, xp, g.nT, g.d);
-        }
-      for (int64_t cl = 0; cl < cn; ++cl)
-        combine_rows<T, W::A, W::A, false>(V + (c0 + cl) * g.N, ldv, P + cl * ldp, g.N, g.N, W::BT);
-    }
-  }
+  const int64_t L = g.To + (W::A - 1) * g.d, ldp = W::A * g.N;  // L: padded frames any tile touches
+  const int64_t nl = g.padL < L ? g.padL : L, nx = L - nl < s.T ? L - nl : s.T;
+  for_channel_blocks<T>(s.Cin, W::A * s.Cin * g.N, ldp, L, [&](int64_t c0, int64_t cn, T* P, T* xp) {
+    for (int64_t b = 0; b < nb; ++b)
+      for (int64_t cl = 0; cl < cn; ++cl) {
+        const T* x = inp + ((b0 + b) * s.Cin + c0 + cl) * s.T;
+        const T left = s.causal ? x[0] : (T)0;
+        for (int64_t p = 0; p < nl; ++p) xp[p] = left;
+        for (int64_t p = 0; p < nx; ++p) xp[nl + p] = x[p];
+        for (int64_t p = nl + nx; p < L; ++p) xp[p] = 0;
+        gather_taps<T, W::A, M>(P + cl * ldp + b * g.nT, g.N, xp, g.nT, g.d);
+      }
+    for (int64_t cl = 0; cl < cn; ++cl)
+      combine_rows<T, W::A, W::A, false>(V + (c0 + cl) * g.N, s.Cin * g.N, P + cl * ldp, g.N, g.N, W::BT);
+  });
 }
 
 // dinp[b0 + b, ci, :] = fold(sum over tiles of BT^T dV[:][ci, b * nT + j] placed at base_j + k d).
 template <typename T, int M>
 void input_transform_backward(T* dinp, const T* dV, const Conv1dShape& s, const Geo& g, int64_t b0, int64_t nb) {
   using W = Wino<M>;
-  const int64_t L = g.To + (W::A - 1) * g.d;  // padded frames any tile touches (>= T + padL)
-  const int64_t nblk = (s.Cin + kChanBlock - 1) / kChanBlock, ldp = W::A * g.N;
-  const int nt = fused_threads(W::A * s.Cin * g.N);
-#pragma omp parallel num_threads(nt) if (nt > 1)
-  {
-    T* P = fused_scratch<T>(4, kChanBlock * ldp);
-    T* buf = fused_scratch<T>(5, L);
-#pragma omp for schedule(static)
-    for (int64_t cb = 0; cb < nblk; ++cb) {
-      const int64_t c0 = cb * kChanBlock, cn = s.Cin - c0 < kChanBlock ? s.Cin - c0 : kChanBlock;
-      for (int64_t cl = 0; cl < cn; ++cl)
-        combine_rows<T, W::A, W::A, true>(P + cl * ldp, g.N, dV + (c0 + cl) * g.N, s.Cin * g.N, g.N, W::BT);
-      for (int64_t b = 0; b < nb; ++b)
-        for (int64_t cl = 0; cl < cn; ++cl) {
-          for (int64_t p = 0; p < L; ++p) buf[p] = 0;
-          scatter_taps<T, W::A, M, true>(buf, P + cl * ldp + b * g.nT, g.N, g.nT, g.d);
-          T* dx = dinp + ((b0 + b) * s.Cin + c0 + cl) * s.T;
-          for (int64_t t = 0; t < s.T; ++t) dx[t] = buf[g.padL + t];
-          if (s.causal)
-            for (int64_t p = 0; p < g.padL; ++p) dx[0] += buf[p];
-        }
-    }
-  }
+  const int64_t L = g.To + (W::A - 1) * g.d, ldp = W::A * g.N;  // L: padded frames any tile touches (>= T + padL)
+  for_channel_blocks<T>(s.Cin, W::A * s.Cin * g.N, ldp, L, [&](int64_t c0, int64_t cn, T* P, T* buf) {
+    for (int64_t cl = 0; cl < cn; ++cl)
+      combine_rows<T, W::A, W::A, true>(P + cl * ldp, g.N, dV + (c0 + cl) * g.N, s.Cin * g.N, g.N, W::BT);
+    for (int64_t b = 0; b < nb; ++b)
+      for (int64_t cl = 0; cl < cn; ++cl) {
+        for (int64_t p = 0; p < L; ++p) buf[p] = 0;
+        scatter_taps<T, W::A, M, true>(buf, P + cl * ldp + b * g.nT, g.N, g.nT, g.d);
+        T* dx = dinp + ((b0 + b) * s.Cin + c0 + cl) * s.T;
+        for (int64_t t = 0; t < s.T; ++t) dx[t] = buf[g.padL + t];
+        if (s.causal)
+          for (int64_t p = 0; p < g.padL; ++p) dx[0] += buf[p];
+      }
+  });
 }
 
 // out[b0 + b, co, base_j + r d] = bias[co] + sum_i AT[r][i] Mx[i][co, b * nT + j] for the frames below To (the
@@ -232,54 +233,36 @@ template <typename T, int M>
 void output_transform(T* out, const T* Mx, const T* bias, const Conv1dShape& s, const Geo& g, int64_t b0,
                       int64_t nb) {
   using W = Wino<M>;
-  const int64_t Lo = M * g.d * ((g.nT + g.d - 1) / g.d);  // frames the tiles cover (>= To)
-  const int64_t nblk = (s.Cout + kChanBlock - 1) / kChanBlock, ldp = M * g.N;
-  const int nt = fused_threads(W::A * s.Cout * g.N);
-#pragma omp parallel num_threads(nt) if (nt > 1)
-  {
-    T* Y = fused_scratch<T>(4, kChanBlock * ldp);
-    T* row = fused_scratch<T>(5, Lo);
-#pragma omp for schedule(static)
-    for (int64_t cb = 0; cb < nblk; ++cb) {
-      const int64_t c0 = cb * kChanBlock, cn = s.Cout - c0 < kChanBlock ? s.Cout - c0 : kChanBlock;
-      for (int64_t cl = 0; cl < cn; ++cl)
-        combine_rows<T, M, W::A, false>(Y + cl * ldp, g.N, Mx + (c0 + cl) * g.N, s.Cout * g.N, g.N, W::AT);
-      for (int64_t b = 0; b < nb; ++b)
-        for (int64_t cl = 0; cl < cn; ++cl) {
-          scatter_taps<T, M, M, false>(row, Y + cl * ldp + b * g.nT, g.N, g.nT, g.d);
-          const T bv = bias ? bias[c0 + cl] : (T)0;
-          T* y = out + ((b0 + b) * s.Cout + c0 + cl) * g.To;
-          for (int64_t t = 0; t < g.To; ++t) y[t] = row[t] + bv;
-        }
-    }
-  }
+  const int64_t Lo = M * g.d * ((g.nT + g.d - 1) / g.d), ldp = M * g.N;  // Lo: frames the tiles cover (>= To)
+  for_channel_blocks<T>(s.Cout, W::A * s.Cout * g.N, ldp, Lo, [&](int64_t c0, int64_t cn, T* Y, T* row) {
+    for (int64_t cl = 0; cl < cn; ++cl)
+      combine_rows<T, M, W::A, false>(Y + cl * ldp, g.N, Mx + (c0 + cl) * g.N, s.Cout * g.N, g.N, W::AT);
+    for (int64_t b = 0; b < nb; ++b)
+      for (int64_t cl = 0; cl < cn; ++cl) {
+        scatter_taps<T, M, M, false>(row, Y + cl * ldp + b * g.nT, g.N, g.nT, g.d);
+        const T bv = bias ? bias[c0 + cl] : (T)0;
+        T* y = out + ((b0 + b) * s.Cout + c0 + cl) * g.To;
+        for (int64_t t = 0; t < g.To; ++t) y[t] = row[t] + bv;
+      }
+  });
 }
 
 // dM[i][co, b * nT + j] = sum_r AT[r][i] dy[b0 + b, co, base_j + r d] (0 for frames at or past To).
 template <typename T, int M>
 void output_transform_backward(T* dM, const T* dout, const Conv1dShape& s, const Geo& g, int64_t b0, int64_t nb) {
   using W = Wino<M>;
-  const int64_t Lo = M * g.d * ((g.nT + g.d - 1) / g.d);  // frames the tiles cover (>= To)
-  const int64_t nblk = (s.Cout + kChanBlock - 1) / kChanBlock, ldp = M * g.N;
-  const int nt = fused_threads(W::A * s.Cout * g.N);
-#pragma omp parallel num_threads(nt) if (nt > 1)
-  {
-    T* D = fused_scratch<T>(4, kChanBlock * ldp);
-    T* row = fused_scratch<T>(5, Lo);
+  const int64_t Lo = M * g.d * ((g.nT + g.d - 1) / g.d), ldp = M * g.N;  // Lo: frames the tiles cover (>= To)
+  for_channel_blocks<T>(s.Cout, W::A * s.Cout * g.N, ldp, Lo, [&](int64_t c0, int64_t cn, T* D, T* row) {
     for (int64_t t = g.To; t < Lo; ++t) row[t] = 0;  // frames past To: zero gradient
-#pragma omp for schedule(static)
-    for (int64_t cb = 0; cb < nblk; ++cb) {
-      const int64_t c0 = cb * kChanBlock, cn = s.Cout - c0 < kChanBlock ? s.Cout - c0 : kChanBlock;
-      for (int64_t b = 0; b < nb; ++b)
-        for (int64_t cl = 0; cl < cn; ++cl) {
-          const T* dy = dout + ((b0 + b) * s.Cout + c0 + cl) * g.To;
-          for (int64_t t = 0; t < g.To; ++t) row[t] = dy[t];
-          gather_taps<T, M, M>(D + cl * ldp + b * g.nT, g.N, row, g.nT, g.d);
-        }
-      for (int64_t cl = 0; cl < cn; ++cl)
-        combine_rows<T, W::A, M, true>(dM + (c0 + cl) * g.N, s.Cout * g.N, D + cl * ldp, g.N, g.N, W::AT);
-    }
-  }
+    for (int64_t b = 0; b < nb; ++b)
+      for (int64_t cl = 0; cl < cn; ++cl) {
+        const T* dy = dout + ((b0 + b) * s.Cout + c0 + cl) * g.To;
+        for (int64_t t = 0; t < g.To; ++t) row[t] = dy[t];
+        gather_taps<T, M, M>(D + cl * ldp + b * g.nT, g.N, row, g.nT, g.d);
+      }
+    for (int64_t cl = 0; cl < cn; ++cl)
+      combine_rows<T, W::A, M, true>(dM + (c0 + cl) * g.N, s.Cout * g.N, D + cl * ldp, g.N, g.N, W::AT);
+  });
 }
 
 template <typename T, int M>
