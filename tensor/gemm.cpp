@@ -303,22 +303,17 @@ void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
       for (int64_t pc = 0; pc < g.K; pc += KC) {
         const int64_t kc = std::min(KC, g.K - pc);
         const T beta = pc == 0 ? g.beta : T(1);
-        if (!split_m) {
-          uk.pack_b(g.tb, kc, nc, g.b_at(pc, jc), g.ldb, bp);
-          for (int64_t ic = m0; ic < m1; ic += MC) {
-            const int64_t mc = std::min(MC, m1 - ic);
-            uk.pack_a(g.ta, mc, kc, g.a_at(ic, pc), g.lda, ap);
-            macro_kernel(uk, mc, nc, kc, ap, bp, g.C + ic * g.ldc + jc, g.ldc, g.alpha, beta);
-          }
-          continue;
-        }
         const int64_t panels = ceil_div(nc, nr);
-        if (ranges) ranges[t].reset(ceil_div(m1 - m0, MC) * panels);  // published by the barrier below
+        if (split_m) {
+          if (ranges) ranges[t].reset(ceil_div(m1 - m0, MC) * panels);  // published by the barrier below
 #pragma omp for schedule(static)
-        for (int64_t p = 0; p < panels; ++p)
-          uk.pack_b(g.tb, kc, std::min(nr, nc - p * nr), g.b_at(pc, jc + p * nr), g.ldb, bp + p * kc * nr);
+          for (int64_t p = 0; p < panels; ++p)
+            uk.pack_b(g.tb, kc, std::min(nr, nc - p * nr), g.b_at(pc, jc + p * nr), g.ldb, bp + p * kc * nr);
+        } else {
+          uk.pack_b(g.tb, kc, nc, g.b_at(pc, jc), g.ldb, bp);
+        }
         // Item i of thread u: row block i / panels of u's rows, B panel i % panels. Own items first, then steal.
-        if (!ranges) {  // one thread: its rows in order
+        if (!ranges) {  // one thread, or split by columns: this thread's rows in order
           for (int64_t ic = m0; ic < m1; ic += MC) {
             const int64_t mc = std::min(MC, m1 - ic);
             uk.pack_a(g.ta, mc, kc, g.a_at(ic, pc), g.lda, ap);
@@ -342,7 +337,7 @@ void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
         }
         // The shared B block is re-packed next round: wait until everyone is done with it (the region's closing
         // barrier covers the last round).
-        if (jc + nc < n1 || pc + kc < g.K) {
+        if (split_m && (jc + nc < n1 || pc + kc < g.K)) {
 #pragma omp barrier
         }
       }
