@@ -306,9 +306,10 @@ void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
         const int64_t panels = ceil_div(nc, nr);
         if (split_m) {
           if (ranges) ranges[t].reset(ceil_div(m1 - m0, MC) * panels);  // published by the barrier below
-#pragma omp for schedule(static)
-          for (int64_t p = 0; p < panels; ++p)
-            uk.pack_b(g.tb, kc, std::min(nr, nc - p * nr), g.b_at(pc, jc + p * nr), g.ldb, bp + p * kc * nr);
+          const int64_t p0 = panels * t / team, p1 = panels * (t + 1) / team;  // this thread's B panels
+          if (p1 > p0)
+            uk.pack_b(g.tb, kc, std::min(p1 * nr, nc) - p0 * nr, g.b_at(pc, jc + p0 * nr), g.ldb, bp + p0 * kc * nr);
+#pragma omp barrier
         } else {
           uk.pack_b(g.tb, kc, nc, g.b_at(pc, jc), g.ldb, bp);
         }

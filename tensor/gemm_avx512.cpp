@@ -127,10 +127,39 @@ inline void transpose16x16(__m512 r[16]) {
   }
 }
 
+// Plain-copy packing (op(A) = A^T, op(B) = B) in the order of pack_rows_into_panels (gemm_kernel.h): blocks of
+// kPackRows source rows, every panel's piece of them, next block prefetched; each packed row of W floats is one or
+// two masked zmm moves (the last panel's mask also zero-fills its padding).
+template <int W>
+void pack_rows_avx512(int64_t kc, int64_t nc, const float* src, int64_t ld, float* out) {
+  constexpr int NV = (W + 15) / 16;
+  auto lane_mask = [](int64_t n, int v) {  // lanes of vector v holding one of the first n columns
+    const int64_t m = n - 16 * v;
+    return __mmask16(m >= 16 ? 0xffff : m <= 0 ? 0 : (1u << m) - 1);
+  };
+  __mmask16 full[NV];
+  for (int v = 0; v < NV; ++v) full[v] = lane_mask(W, v);
+  for (int64_t k0 = 0; k0 < kc; k0 += kPackRows) {
+    const int kb = kc - k0 < kPackRows ? int(kc - k0) : kPackRows;
+    for (int u = 0; u < kb; ++u)  // never faults
+      _mm_prefetch(reinterpret_cast<const char*>(src + (k0 + kPackRows + u) * ld), _MM_HINT_T0);
+    float* dst = out + k0 * W;
+    for (int64_t j0 = 0; j0 < nc; j0 += W, dst += kc * W) {
+      __mmask16 load[NV];
+      for (int v = 0; v < NV; ++v) load[v] = lane_mask(nc - j0, v);
+      for (int u = 0; u < kb; ++u) {
+        const float* s = src + (k0 + u) * ld + j0;
+        for (int v = 0; v < NV; ++v)
+          _mm512_mask_storeu_ps(dst + u * W + 16 * v, full[v], _mm512_maskz_loadu_ps(load[v], s + 16 * v));
+      }
+    }
+  }
+}
+
 // op(B) = B^T (the forward of a linear layer, x W^T): full 32-row panels go through 16×16 register transposes;
 // the rest (k tail, partial panel) through the generic packer.
 void pack_b_f32(bool trans, int64_t kc, int64_t nc, const float* b, int64_t ldb, float* bp) {
-  if (!trans) return pack_b_panels<float, kNrF>(false, kc, nc, b, ldb, bp);
+  if (!trans) return pack_rows_avx512<kNrF>(kc, nc, b, ldb, bp);
   for (int64_t j0 = 0; j0 < nc; j0 += kNrF, bp += kc * kNrF) {
     const float* src = b + j0 * ldb;
     if (nc - j0 < kNrF) {
@@ -153,7 +182,7 @@ void pack_b_f32(bool trans, int64_t kc, int64_t nc, const float* b, int64_t ldb,
 // op(A) = A (row-major, the usual case): each full 12-row panel goes through 16×16 register transposes (rows 12..15
 // zero) and 12-lane masked stores; with N as small as 256 the packing of A is otherwise ~10% of the time.
 void pack_a_f32(bool trans, int64_t mc, int64_t kc, const float* a, int64_t lda, float* ap) {
-  if (trans) return pack_a_panels<float, kMrF>(true, mc, kc, a, lda, ap);
+  if (trans) return pack_rows_avx512<kMrF>(kc, mc, a, lda, ap);
   static_assert(kMrF <= 16, "one zmm holds a packed column of A");
   constexpr __mmask16 kRows = __mmask16((1u << kMrF) - 1);
   for (int64_t i0 = 0; i0 < mc; i0 += kMrF, ap += kc * kMrF) {
