@@ -1,0 +1,56 @@
+// gemm_simd_kernel.h — internal to tensor/gemm_*.cpp: the register-blocked micro-kernel written once over a SIMD
+// traits type, instantiated by each ISA file (compiled with its own vector flags) for float and double.
+//
+// V provides: T (element), Reg (vector register), kLanes, zero(), load(p) (aligned), loadu(p), storeu(p, r),
+// bcast(p) (broadcast *p), set1(x), fmadd(a, b, c) = a*b + c, mul(a, b).
+#pragma once
+#include <cstdint>
+
+namespace t2m::gemm_detail {
+
+// C[0:MR, 0:kLanes*NV] = alpha * ap^T bp + beta * C (beta == 0: C never read); packed layouts as in gemm_kernel.h.
+// Per k: NV vectors of B, MR broadcasts of A, MR*NV FMAs into the accumulators; PrefetchA pulls the A panel 8 k
+// steps ahead into L1.
+template <typename V, int MR, int NV, bool PrefetchA>
+void simd_kernel(int64_t kc, const typename V::T* ap, const typename V::T* bp, typename V::T* c, int64_t ldc,
+                 typename V::T alpha, typename V::T beta) {
+  using R = typename V::Reg;
+  constexpr int L = V::kLanes;
+  R acc[MR][NV];
+#pragma GCC unroll 32
+  for (int i = 0; i < MR; ++i)
+#pragma GCC unroll 4
+    for (int v = 0; v < NV; ++v) acc[i][v] = V::zero();
+  for (int64_t k = 0; k < kc; ++k) {
+    R b[NV];
+#pragma GCC unroll 4
+    for (int v = 0; v < NV; ++v) b[v] = V::load(bp + L * v);
+    if (PrefetchA) __builtin_prefetch(ap + 8 * MR);
+#pragma GCC unroll 32
+    for (int i = 0; i < MR; ++i) {
+      const R a = V::bcast(ap + i);
+#pragma GCC unroll 4
+      for (int v = 0; v < NV; ++v) acc[i][v] = V::fmadd(a, b[v], acc[i][v]);
+    }
+    ap += MR;
+    bp += L * NV;
+  }
+  const R va = V::set1(alpha);
+  if (beta == typename V::T(0)) {
+#pragma GCC unroll 32
+    for (int i = 0; i < MR; ++i)
+#pragma GCC unroll 4
+      for (int v = 0; v < NV; ++v) V::storeu(c + i * ldc + L * v, V::mul(va, acc[i][v]));
+  } else {
+    const R vb = V::set1(beta);
+#pragma GCC unroll 32
+    for (int i = 0; i < MR; ++i)
+#pragma GCC unroll 4
+      for (int v = 0; v < NV; ++v) {
+        typename V::T* p = c + i * ldc + L * v;
+        V::storeu(p, V::fmadd(va, acc[i][v], V::mul(vb, V::loadu(p))));
+      }
+  }
+}
+
+}  // namespace t2m::gemm_detail
