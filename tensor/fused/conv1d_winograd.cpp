@@ -177,7 +177,7 @@ void for_channel_blocks(int64_t C, int64_t work, int64_t ldb, int64_t nrow, F&& 
   {
     T* blk = fused_scratch<T>(4, kChanBlock * ldb);
     T* row = fused_scratch<T>(5, nrow);
-#pragma omp for schedule(dynamic, 1)
+#pragma omp for schedule(static)
     for (int64_t cb = 0; cb < nblk; ++cb) {
       const int64_t c0 = cb * kChanBlock;
       f(c0, C - c0 < kChanBlock ? C - c0 : kChanBlock, blk, row);
