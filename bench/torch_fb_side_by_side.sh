@@ -50,23 +50,15 @@ TORCH_ARGS=(--suite fb --only "$TORCH_ONLY" --threads "$THREADS" --no-profile --
 CPU_CONFIGS="$(echo "$ONLY" | tr '|' '\n' | sed -E 's/fb-w([0-9]+) B([0-9]+)/\1 \2/' | \
   while read -r w b; do for p in fb actor both; do printf '%s:%s:%s,' "$w" "$b" "$p"; done; done)"
 CPU_CONFIGS="${CPU_CONFIGS%,}"
-LIB=/usr/lib/x86_64-linux-gnu
-if [ -d "$LIB/openblas-openmp" ] && [ -f "$LIB/libtcmalloc_minimal.so.4" ]; then
-  ENVV=(LD_LIBRARY_PATH="$LIB/openblas-openmp" OPENBLAS_CORETYPE=SkylakeX LD_PRELOAD="$LIB/libtcmalloc_minimal.so.4")
-elif [ -n "${T2M_OPENBLAS_ROOT:-}" ]; then
-  R="$T2M_OPENBLAS_ROOT$LIB"
-  ENVV=(LD_LIBRARY_PATH="$R/openblas-openmp" OPENBLAS_CORETYPE=SkylakeX LD_PRELOAD="$R/libtcmalloc_minimal.so.4")
-else
-  echo "torch_fb_side_by_side.sh: OpenBLAS (libopenblas0-openmp) or tcmalloc not installed; set T2M_OPENBLAS_ROOT" >&2
-  exit 1
-fi
+source "$REPO/bench/torch_env.sh"
+torch_best_env torch_fb_side_by_side.sh
 if [ "$MODE" = cpu ]; then
   echo "# torch (--best environment): bench/torch_fb_cputime.py --threads $THREADS --configs $CPU_CONFIGS"
-  env "${ENVV[@]}" ANCHOR_REEXEC=1 TORCH_REF="$TORCH_REF" /usr/bin/python3 "$REPO/bench/torch_fb_cputime.py" \
+  "${TORCH_ENV[@]}" TORCH_REF="$TORCH_REF" /usr/bin/python3 "$REPO/bench/torch_fb_cputime.py" \
     --threads "$THREADS" --configs "$CPU_CONFIGS" > "$TMP/torch_cpu.txt"
 else
   echo "# torch (--best environment): $TORCH_REF ${TORCH_ARGS[*]}"
-  env "${ENVV[@]}" ANCHOR_REEXEC=1 /usr/bin/python3 "$TORCH_REF" "${TORCH_ARGS[@]}" > "$TMP/torch.txt" 2>&1
+  "${TORCH_ENV[@]}" /usr/bin/python3 "$TORCH_REF" "${TORCH_ARGS[@]}" > "$TMP/torch.txt" 2>&1
 fi
 echo "# load after: $(uptime)"
 

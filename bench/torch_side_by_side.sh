@@ -34,19 +34,10 @@ echo "# ours: $T2M bench --shapes micro --threads $THREADS --reps $REPS"
 "$T2M" bench --shapes micro --threads "$THREADS" --reps "$REPS" | tee "$TMP/ours.txt"
 
 TORCH_ARGS=(--suite micro --only "(out=)" --threads "$THREADS" --micro-reps "$REPS" --json "$TMP/torch.json")
-LIB=/usr/lib/x86_64-linux-gnu
-if [ -d "$LIB/openblas-openmp" ] && [ -f "$LIB/libtcmalloc_minimal.so.4" ]; then
-  echo "# torch: /usr/bin/python3 $TORCH_REF --best ${TORCH_ARGS[*]}"
-  /usr/bin/python3 "$TORCH_REF" --best "${TORCH_ARGS[@]}" > "$TMP/torch.txt" 2>&1
-elif [ -n "${T2M_OPENBLAS_ROOT:-}" ]; then
-  R="$T2M_OPENBLAS_ROOT$LIB"
-  echo "# torch: --best equivalent with OpenBLAS/tcmalloc from $T2M_OPENBLAS_ROOT"
-  ANCHOR_REEXEC=1 LD_LIBRARY_PATH="$R/openblas-openmp" OPENBLAS_CORETYPE=SkylakeX LD_PRELOAD="$R/libtcmalloc_minimal.so.4" \
-    /usr/bin/python3 "$TORCH_REF" "${TORCH_ARGS[@]}" > "$TMP/torch.txt" 2>&1
-else
-  echo "torch_side_by_side.sh: OpenBLAS (libopenblas0-openmp) or tcmalloc not installed; set T2M_OPENBLAS_ROOT" >&2
-  exit 1
-fi
+source "$REPO/bench/torch_env.sh"
+torch_best_env torch_side_by_side.sh
+echo "# torch: ${TORCH_ENV[*]} /usr/bin/python3 $TORCH_REF ${TORCH_ARGS[*]}"
+"${TORCH_ENV[@]}" /usr/bin/python3 "$TORCH_REF" "${TORCH_ARGS[@]}" > "$TMP/torch.txt" 2>&1
 grep -E "^# env" "$TMP/torch.txt" || true
 
 # torch JSON -> "MxNxK threads gflops" lines, then join with our table on (shape, threads).

@@ -35,16 +35,8 @@ TORCH_REF="${TORCH_REF:-/work/shared/anchor/torch_ref.py}"
 BENCH="$BUILD_DIR/bench_train_vae"
 [ -x "$BENCH" ] || { echo "torch_vae_side_by_side.sh: $BENCH not built (cmake --build $BUILD_DIR --target bench_train_vae)" >&2; exit 1; }
 [ -f "$TORCH_REF" ] || { echo "torch_vae_side_by_side.sh: $TORCH_REF not found" >&2; exit 1; }
-LIB=/usr/lib/x86_64-linux-gnu
-if [ -d "$LIB/openblas-openmp" ] && [ -f "$LIB/libtcmalloc_minimal.so.4" ]; then
-  TORCH_ENV=(env ANCHOR_REEXEC=1 LD_LIBRARY_PATH="$LIB/openblas-openmp" OPENBLAS_CORETYPE=SkylakeX LD_PRELOAD="$LIB/libtcmalloc_minimal.so.4")
-elif [ -n "${T2M_OPENBLAS_ROOT:-}" ]; then
-  R="$T2M_OPENBLAS_ROOT$LIB"
-  TORCH_ENV=(env ANCHOR_REEXEC=1 LD_LIBRARY_PATH="$R/openblas-openmp" OPENBLAS_CORETYPE=SkylakeX LD_PRELOAD="$R/libtcmalloc_minimal.so.4")
-else
-  echo "torch_vae_side_by_side.sh: OpenBLAS (libopenblas0-openmp) or tcmalloc not installed; set T2M_OPENBLAS_ROOT" >&2
-  exit 1
-fi
+source "$REPO/bench/torch_env.sh"
+torch_best_env torch_vae_side_by_side.sh
 TMP="$(mktemp -d)"
 trap 'rm -rf "$TMP"' EXIT
 
