@@ -214,8 +214,9 @@ void gemm_small(const GemmArgs<T>& g, int nt) {
 
 // ---- the packed path ------------------------------------------------------------------------------------------
 
-// C block (mc×nc, row stride ldc) from packed A (mc×kc) and packed B (kc×nc). Edge tiles go through a local
-// tile so that the micro-kernel always runs full-size.
+// C block (mc×nc, row stride ldc) from packed A (mc×kc) and packed B (kc×nc). A short last row panel whose height
+// has a kernel of its own (MicroKernel::short_m) runs it on C directly; other edge tiles go through a local tile so
+// that the micro-kernel always runs full-size.
 template <typename T>
 void macro_kernel(const MicroKernel<T>& uk, int64_t mc, int64_t nc, int64_t kc, const T* ap, const T* bp, T* c,
                   int64_t ldc, T alpha, T beta) {
@@ -234,6 +235,11 @@ void macro_kernel(const MicroKernel<T>& uk, int64_t mc, int64_t nc, int64_t kc, 
           __builtin_prefetch(cc + i * ldc + nr - 1, 1);
         }
         uk.kernel(kc, a, b, cc, ldc, alpha, beta);
+        continue;
+      }
+      const int s = n < nr ? -1 : m == uk.short_m[0] ? 0 : m == uk.short_m[1] ? 1 : -1;
+      if (s >= 0 && uk.short_kernel[s]) {  // a short row panel of a size with its own kernel: straight into C
+        uk.short_kernel[s](kc, a, b, cc, ldc, alpha, beta);
         continue;
       }
       uk.kernel(kc, a, b, tile, nr, T(1), T(0));

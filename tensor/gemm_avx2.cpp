@@ -58,13 +58,15 @@ void pack_b_f64(bool trans, int64_t kc, int64_t nc, const double* b, int64_t ldb
 
 // B micro-panel kc×nr = 512×16×4 B = 32 KB (L1); A block 192×512×4 B = 384 KB (L2); B block 8 MB (L3).
 const MicroKernel<float>& avx2_kernel_f32() {
-  static const MicroKernel<float> k{"avx2", kMrF, kNrF, 192, 512, 4096, &simd_kernel<Ymm32, kMrF, kNvF, false>, &pack_a_f32,
-                                    &pack_b_f32};
+  static const MicroKernel<float> k{"avx2", kMrF, kNrF, 192, 512, 4096, &simd_kernel<Ymm32, kMrF, kNvF, false>,
+                                    {2, 4},
+                                    {&simd_kernel<Ymm32, 2, kNvF, false, kMrF>, &simd_kernel<Ymm32, 4, kNvF, false, kMrF>},
+                                    &pack_a_f32, &pack_b_f32};
   return k;
 }
 const MicroKernel<double>& avx2_kernel_f64() {
-  static const MicroKernel<double> k{"avx2", kMrD, kNrD, 192, 256, 2048, &simd_kernel<Ymm64, kMrD, kNvD, false>, &pack_a_f64,
-                                     &pack_b_f64};
+  static const MicroKernel<double> k{"avx2", kMrD, kNrD, 192, 256, 2048, &simd_kernel<Ymm64, kMrD, kNvD, false>,
+                                     {0, 0}, {nullptr, nullptr}, &pack_a_f64, &pack_b_f64};
   return k;
 }
 

@@ -22,6 +22,12 @@ struct MicroKernel {
   int mr, nr;          // register tile
   int64_t mc, kc, nc;  // cache blocking: A block mc×kc (L2), B micro-panel kc×nr (L1), B block kc×nc (L3)
   void (*kernel)(int64_t kc, const T* ap, const T* bp, T* c, int64_t ldc, T alpha, T beta);
+  // Kernels for the short last panel of C (m < mr rows, full nr columns), reading the first rows of an mr-wide A
+  // panel and writing only those rows: short[0] covers m <= short_m[0], short[1] m <= short_m[1] (null: none).
+  // Without them a short panel costs a full mr-row kernel into a scratch tile plus a copy (for M = 256 and mr = 12
+  // that is 3% more kernel work).
+  int short_m[2];
+  void (*short_kernel[2])(int64_t kc, const T* ap, const T* bp, T* c, int64_t ldc, T alpha, T beta);
   void (*pack_a)(bool trans, int64_t mc, int64_t kc, const T* a, int64_t lda, T* ap);
   void (*pack_b)(bool trans, int64_t kc, int64_t nc, const T* b, int64_t ldb, T* bp);
 };

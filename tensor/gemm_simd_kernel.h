@@ -8,10 +8,11 @@
 
 namespace t2m::gemm_detail {
 
-// C[0:MR, 0:kLanes*NV] = alpha * ap^T bp + beta * C (beta == 0: C never read); packed layouts as in gemm_kernel.h.
-// Per k: NV vectors of B, MR broadcasts of A, MR*NV FMAs into the accumulators; PrefetchA pulls the A panel 8 k
-// steps ahead into L1.
-template <typename V, int MR, int NV, bool PrefetchA>
+// C[0:MR, 0:kLanes*NV] = alpha * ap^T bp + beta * C (beta == 0: C never read); packed layouts as in gemm_kernel.h,
+// the A panel AS rows wide (AS > MR: the first MR rows of a wider panel, for the short last panel of C). Per k: NV
+// vectors of B, MR broadcasts of A, MR*NV FMAs into the accumulators; PrefetchA pulls the A panel 8 k steps ahead
+// into L1. Each C element gets the same FMA chain whatever MR and AS, so a short kernel gives the full one's bits.
+template <typename V, int MR, int NV, bool PrefetchA, int AS = MR>
 void simd_kernel(int64_t kc, const typename V::T* ap, const typename V::T* bp, typename V::T* c, int64_t ldc,
                  typename V::T alpha, typename V::T beta) {
   using R = typename V::Reg;
@@ -25,14 +26,14 @@ void simd_kernel(int64_t kc, const typename V::T* ap, const typename V::T* bp, t
     R b[NV];
 #pragma GCC unroll 4
     for (int v = 0; v < NV; ++v) b[v] = V::load(bp + L * v);
-    if (PrefetchA) __builtin_prefetch(ap + 8 * MR);
+    if (PrefetchA) __builtin_prefetch(ap + 8 * AS);
 #pragma GCC unroll 32
     for (int i = 0; i < MR; ++i) {
       const R a = V::bcast(ap + i);
 #pragma GCC unroll 4
       for (int v = 0; v < NV; ++v) acc[i][v] = V::fmadd(a, b[v], acc[i][v]);
     }
-    ap += MR;
+    ap += AS;
     bp += L * NV;
   }
   const R va = V::set1(alpha);

@@ -140,6 +140,20 @@ void larger_shapes() {
   });
 }
 TEST(Gemm, FloatLargerShapes) { larger_shapes<float>(); }
+
+// Row counts that leave a short last row panel with a kernel of its own (MicroKernel::short_m: avx512 mr 12 ->
+// 4 and 8 rows, avx2 mr 6 -> 2 and 4) with full column panels, across K blocks (kc 512) and with beta != 0.
+TEST(Gemm, FloatShortRowPanels) {
+  for_each_kernel([] {
+    uint32_t seed = 500;
+    for (int t = 0; t < 4; ++t)
+      for (const int64_t M : {4, 8, 14, 16, 20, 44, 256})
+        for (const int64_t K : {33, 600}) {
+          check_gemm<float>(t & 1, t & 2, M, 64, K, 1.0f, 0.0f, 0, seed++);
+          check_gemm<float>(t & 1, t & 2, M, 96, K, -0.5f, 1.5f, 3, seed++);
+        }
+  });
+}
 TEST(Gemm, DoubleLargerShapes) { larger_shapes<double>(); }
 
 template <typename T>
