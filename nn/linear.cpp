@@ -4,7 +4,6 @@
 #include <omp.h>
 
 #include <cmath>
-#include <cstring>
 #include <string>
 
 #include "autograd/node.h"
@@ -17,15 +16,10 @@ namespace {
 
 bool is_float(DType d) { return d == DType::f32 || d == DType::f64; }
 
-// x (N, in), w (out, in), b (out) or null -> y (N, out) = x w^T + b: rows of y start as b, the GEMM adds on.
+// x (N, in), w (out, in), b (out) or null -> y (N, out) = x w^T + b (the bias added in the GEMM's final store).
 template <typename T>
 void linear_fwd(T* y, const T* x, const T* w, const T* b, int64_t N, int64_t in, int64_t out) {
-  if (b != nullptr) {
-    const int nt = N * out < kParallelGrain ? 1 : get_num_threads();
-#pragma omp parallel for schedule(static) num_threads(nt)
-    for (int64_t n = 0; n < N; ++n) std::memcpy(y + n * out, b, (size_t)out * sizeof(T));
-  }
-  gemm(false, true, N, out, in, (T)1, x, in, w, in, b != nullptr ? (T)1 : (T)0, y, out);
+  gemm_bias(false, true, N, out, in, (T)1, x, in, w, in, b, y, out);
 }
 
 // g (N, out), x (N, in), w (out, in). dx (N, in) = g w; dw (out, in) = g^T x; db (out) = sum_n g[n]. Null skips.

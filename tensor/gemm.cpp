@@ -37,6 +37,7 @@ struct GemmArgs {
   T beta;
   T* C;
   int64_t ldc;
+  const T* bias = nullptr;  // length N, added to every row of C; only with beta == 0 (gemm_bias)
   const T* a_at(int64_t i, int64_t k) const { return ta ? A + k * lda + i : A + i * lda + k; }  // &op(A)[i,k]
   const T* b_at(int64_t k, int64_t j) const { return tb ? B + j * ldb + k : B + k * ldb + j; }  // &op(B)[k,j]
 };
@@ -127,7 +128,9 @@ template <typename T>
 void scale_c(const GemmArgs<T>& g) {
   for (int64_t i = 0; i < g.M; ++i) {
     T* c = g.C + i * g.ldc;
-    if (g.beta == T(0)) {
+    if (g.bias) {
+      std::copy(g.bias, g.bias + g.N, c);
+    } else if (g.beta == T(0)) {
       std::fill(c, c + g.N, T(0));
     } else if (g.beta != T(1)) {
       for (int64_t j = 0; j < g.N; ++j) c[j] *= g.beta;
@@ -192,7 +195,11 @@ void gemm_small_rows(const GemmArgs<T>& g, int64_t i0, int64_t i1) {
       }
     }
     if (g.beta == T(0)) {
-      for (int64_t j = 0; j < g.N; ++j) c[j] = g.alpha * tmp[j];
+      if (g.bias) {
+        for (int64_t j = 0; j < g.N; ++j) c[j] = std::fma(g.alpha, tmp[j], g.bias[j]);
+      } else {
+        for (int64_t j = 0; j < g.N; ++j) c[j] = g.alpha * tmp[j];
+      }
     } else {
       for (int64_t j = 0; j < g.N; ++j) c[j] = std::fma(g.alpha, tmp[j], g.beta * c[j]);
     }
@@ -219,34 +226,38 @@ void gemm_small(const GemmArgs<T>& g, int nt) {
 // that the micro-kernel always runs full-size.
 template <typename T>
 void macro_kernel(const MicroKernel<T>& uk, int64_t mc, int64_t nc, int64_t kc, const T* ap, const T* bp, T* c,
-                  int64_t ldc, T alpha, T beta) {
+                  int64_t ldc, T alpha, T beta, const T* bias) {
   const int mr = uk.mr, nr = uk.nr;
   alignas(64) T tile[32 * 64];
   for (int64_t jr = 0; jr < nc; jr += nr) {
     const int64_t n = std::min<int64_t>(nr, nc - jr);
     const T* b = bp + (jr / nr) * kc * nr;
+    const T* bias_j = bias ? bias + jr : nullptr;
     for (int64_t ir = 0; ir < mc; ir += mr) {
       const int64_t m = std::min<int64_t>(mr, mc - ir);
       const T* a = ap + (ir / mr) * kc * mr;
       T* cc = c + ir * ldc + jr;
       if (m == mr && n == nr) {
-        for (int i = 0; i < mr; ++i) {  // the kernel touches C only at its end: start pulling the tile in
-          __builtin_prefetch(cc + i * ldc, 1);
-          __builtin_prefetch(cc + i * ldc + nr - 1, 1);
-        }
-        uk.kernel(kc, a, b, cc, ldc, alpha, beta);
+        if (beta != T(0))  // the kernel reads C only at its end: start pulling the tile in (beta == 0 only writes)
+          for (int i = 0; i < mr; ++i) {
+            __builtin_prefetch(cc + i * ldc, 1);
+            __builtin_prefetch(cc + i * ldc + nr - 1, 1);
+          }
+        uk.kernel(kc, a, b, cc, ldc, alpha, beta, bias_j);
         continue;
       }
       const int s = n < nr ? -1 : m == uk.short_m[0] ? 0 : m == uk.short_m[1] ? 1 : -1;
       if (s >= 0 && uk.short_kernel[s]) {  // a short row panel of a size with its own kernel: straight into C
-        uk.short_kernel[s](kc, a, b, cc, ldc, alpha, beta);
+        uk.short_kernel[s](kc, a, b, cc, ldc, alpha, beta, bias_j);
         continue;
       }
-      uk.kernel(kc, a, b, tile, nr, T(1), T(0));
+      uk.kernel(kc, a, b, tile, nr, T(1), T(0), nullptr);
       for (int64_t i = 0; i < m; ++i) {
         T* row = cc + i * ldc;
         const T* t = tile + i * nr;
-        if (beta == T(0)) {
+        if (beta == T(0) && bias_j) {
+          for (int64_t j = 0; j < n; ++j) row[j] = std::fma(alpha, t[j], bias_j[j]);
+        } else if (beta == T(0)) {
           for (int64_t j = 0; j < n; ++j) row[j] = alpha * t[j];
         } else {
           for (int64_t j = 0; j < n; ++j) row[j] = std::fma(alpha, t[j], beta * row[j]);
@@ -309,6 +320,7 @@ void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
       for (int64_t pc = 0; pc < g.K; pc += KC) {
         const int64_t kc = std::min(KC, g.K - pc);
         const T beta = pc == 0 ? g.beta : T(1);
+        const T* bias = pc == 0 && g.bias ? g.bias + jc : nullptr;  // the bias joins in the first K block
         const int64_t panels = ceil_div(nc, nr);
         if (split_m) {
           if (ranges) ranges[t].reset(ceil_div(m1 - m0, MC) * panels);  // published by the barrier below
@@ -324,7 +336,7 @@ void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
           for (int64_t ic = m0; ic < m1; ic += MC) {
             const int64_t mc = std::min(MC, m1 - ic);
             uk.pack_a(g.ta, mc, kc, g.a_at(ic, pc), g.lda, ap);
-            macro_kernel(uk, mc, nc, kc, ap, bp, g.C + ic * g.ldc + jc, g.ldc, g.alpha, beta);
+            macro_kernel(uk, mc, nc, kc, ap, bp, g.C + ic * g.ldc + jc, g.ldc, g.alpha, beta, bias);
           }
         } else {
           int64_t packed_ic = -1;  // first row of the block whose A is in ap
@@ -338,7 +350,7 @@ void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
                 packed_ic = ic;
               }
               macro_kernel(uk, mc, std::min(nr, nc - p * nr), kc, ap, bp + p * kc * nr,
-                           g.C + ic * g.ldc + jc + p * nr, g.ldc, g.alpha, beta);
+                           g.C + ic * g.ldc + jc + p * nr, g.ldc, g.alpha, beta, bias ? bias + p * nr : nullptr);
             }
           }
         }
@@ -369,8 +381,8 @@ void gemm_run(const GemmArgs<T>& g, int nt) {
 
 template <typename T>
 void gemm_one(bool ta, bool tb, int64_t M, int64_t N, int64_t K, T alpha, const T* A, int64_t lda, const T* B,
-              int64_t ldb, T beta, T* C, int64_t ldc) {
-  const GemmArgs<T> g{ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, C, ldc};
+              int64_t ldb, T beta, T* C, int64_t ldc, const T* bias = nullptr) {
+  const GemmArgs<T> g{ta, tb, M, N, K, alpha, A, lda, B, ldb, bias ? T(0) : beta, C, ldc, bias};
   check_args("gemm", g);
   gemm_run(g, threads_for(M * N * K));
 }
@@ -410,6 +422,14 @@ void gemm(bool ta, bool tb, int64_t M, int64_t N, int64_t K, float alpha, const 
 void gemm(bool ta, bool tb, int64_t M, int64_t N, int64_t K, double alpha, const double* A, int64_t lda,
           const double* B, int64_t ldb, double beta, double* C, int64_t ldc) {
   gemm_one(ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, C, ldc);
+}
+void gemm_bias(bool ta, bool tb, int64_t M, int64_t N, int64_t K, float alpha, const float* A, int64_t lda,
+               const float* B, int64_t ldb, const float* bias, float* C, int64_t ldc) {
+  gemm_one(ta, tb, M, N, K, alpha, A, lda, B, ldb, 0.0f, C, ldc, bias);
+}
+void gemm_bias(bool ta, bool tb, int64_t M, int64_t N, int64_t K, double alpha, const double* A, int64_t lda,
+               const double* B, int64_t ldb, const double* bias, double* C, int64_t ldc) {
+  gemm_one(ta, tb, M, N, K, alpha, A, lda, B, ldb, 0.0, C, ldc, bias);
 }
 void gemm_batched(bool ta, bool tb, int64_t batch, int64_t M, int64_t N, int64_t K, float alpha, const float* A,
                   int64_t lda, int64_t sa, const float* B, int64_t ldb, int64_t sb, float beta, float* C,

@@ -17,6 +17,15 @@ void gemm(bool trans_a, bool trans_b, int64_t M, int64_t N, int64_t K, float alp
 void gemm(bool trans_a, bool trans_b, int64_t M, int64_t N, int64_t K, double alpha, const double* A, int64_t lda,
           const double* B, int64_t ldb, double beta, double* C, int64_t ldc);
 
+// C = alpha * op(A) op(B) + 1 bias^T: bias (length N) added to every row of C, C written without being read (the
+// forward of a linear layer, with the bias joining in the GEMM's final store instead of a pass of its own). Each
+// element is fma(alpha, acc, bias[j]) where acc is the element's dot product, the same bits as filling C with the
+// bias rows and calling gemm with beta = 1 (alpha = 1). bias may be null (then it is gemm with beta = 0).
+void gemm_bias(bool trans_a, bool trans_b, int64_t M, int64_t N, int64_t K, float alpha, const float* A, int64_t lda,
+               const float* B, int64_t ldb, const float* bias, float* C, int64_t ldc);
+void gemm_bias(bool trans_a, bool trans_b, int64_t M, int64_t N, int64_t K, double alpha, const double* A,
+               int64_t lda, const double* B, int64_t ldb, const double* bias, double* C, int64_t ldc);
+
 // Batched: for b in [0, batch): C_b = alpha * op(A_b) op(B_b) + beta * C_b with A_b = A + b*stride_a, etc.
 // A stride of 0 broadcasts one matrix over the batch. Threads split across the batch or within each GEMM.
 void gemm_batched(bool trans_a, bool trans_b, int64_t batch, int64_t M, int64_t N, int64_t K, float alpha,

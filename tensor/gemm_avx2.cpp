@@ -60,7 +60,8 @@ void pack_b_f64(bool trans, int64_t kc, int64_t nc, const double* b, int64_t ldb
 const MicroKernel<float>& avx2_kernel_f32() {
   static const MicroKernel<float> k{"avx2", kMrF, kNrF, 192, 512, 4096, &simd_kernel<Ymm32, kMrF, kNvF, false>,
                                     {2, 4},
-                                    {&simd_kernel<Ymm32, 2, kNvF, false, kMrF>, &simd_kernel<Ymm32, 4, kNvF, false, kMrF>},
+                                    {&simd_kernel<Ymm32, 2, kNvF, false, kMrF>,
+                                     &simd_kernel<Ymm32, 4, kNvF, false, kMrF>},
                                     &pack_a_f32, &pack_b_f32};
   return k;
 }

@@ -173,7 +173,8 @@ void pack_b_f64(bool trans, int64_t kc, int64_t nc, const double* b, int64_t ldb
 const MicroKernel<float>& avx512_kernel_f32() {
   static const MicroKernel<float> k{"avx512", kMrF, kNrF, 192, 512, 4096, &simd_kernel<Zmm32, kMrF, kNvF, true>,
                                     {4, 8},
-                                    {&simd_kernel<Zmm32, 4, kNvF, true, kMrF>, &simd_kernel<Zmm32, 8, kNvF, true, kMrF>},
+                                    {&simd_kernel<Zmm32, 4, kNvF, true, kMrF>,
+                                     &simd_kernel<Zmm32, 8, kNvF, true, kMrF>},
                                     &pack_a_f32, &pack_b_f32};
   return k;
 }

@@ -8,8 +8,9 @@
 //   A panel p: ap[p*kc*mr + k*mr + i] = op(A)[p*mr + i, k]      (i < mr)
 //   B panel q: bp[q*kc*nr + k*nr + j] = op(B)[k, q*nr + j]      (j < nr)
 // A micro-kernel computes C[0:mr, 0:nr] = alpha * sum_k ap[k,:]^T bp[k,:] + beta * C (beta == 0: C never read)
-// with the final update done as fma(alpha, acc, beta*c), in k order, so every element's arithmetic depends
-// only on its own row/column data (results do not depend on the thread split).
+// with the final update done as fma(alpha, acc, beta*c) (beta == 0 with a bias row: fma(alpha, acc, bias[j])), in
+// k order, so every element's arithmetic depends only on its own row/column data (results do not depend on the
+// thread split).
 #pragma once
 #include <cmath>
 #include <cstdint>
@@ -21,13 +22,13 @@ struct MicroKernel {
   const char* name;
   int mr, nr;          // register tile
   int64_t mc, kc, nc;  // cache blocking: A block mc×kc (L2), B micro-panel kc×nr (L1), B block kc×nc (L3)
-  void (*kernel)(int64_t kc, const T* ap, const T* bp, T* c, int64_t ldc, T alpha, T beta);
+  void (*kernel)(int64_t kc, const T* ap, const T* bp, T* c, int64_t ldc, T alpha, T beta, const T* bias);
   // Kernels for the short last panel of C (m < mr rows, full nr columns), reading the first rows of an mr-wide A
   // panel and writing only those rows: short[0] covers m <= short_m[0], short[1] m <= short_m[1] (null: none).
   // Without them a short panel costs a full mr-row kernel into a scratch tile plus a copy (for M = 256 and mr = 12
   // that is 3% more kernel work).
   int short_m[2];
-  void (*short_kernel[2])(int64_t kc, const T* ap, const T* bp, T* c, int64_t ldc, T alpha, T beta);
+  void (*short_kernel[2])(int64_t kc, const T* ap, const T* bp, T* c, int64_t ldc, T alpha, T beta, const T* bias);
   void (*pack_a)(bool trans, int64_t mc, int64_t kc, const T* a, int64_t lda, T* ap);
   void (*pack_b)(bool trans, int64_t kc, int64_t nc, const T* b, int64_t ldb, T* bp);
 };
@@ -122,23 +123,6 @@ void pack_b_panels(bool trans, int64_t kc, int64_t nc, const T* b, int64_t ldb, 
     } else {
       for (int64_t k = 0; k < kc; ++k)
         for (int j = 0; j < NR; ++j) bp[k * NR + j] = j < n ? src[j * ldb + k] : T(0);
-    }
-  }
-}
-
-// A portable register-blocked kernel (the compiler vectorises the j loop); used for double.
-template <typename T, int MR, int NR>
-void kernel_generic(int64_t kc, const T* ap, const T* bp, T* c, int64_t ldc, T alpha, T beta) {
-  T acc[MR][NR] = {};
-  for (int64_t k = 0; k < kc; ++k, ap += MR, bp += NR)
-    for (int i = 0; i < MR; ++i)
-      for (int j = 0; j < NR; ++j) acc[i][j] = std::fma(ap[i], bp[j], acc[i][j]);
-  for (int i = 0; i < MR; ++i) {
-    T* row = c + i * ldc;
-    if (beta == T(0)) {
-      for (int j = 0; j < NR; ++j) row[j] = alpha * acc[i][j];
-    } else {
-      for (int j = 0; j < NR; ++j) row[j] = std::fma(alpha, acc[i][j], beta * row[j]);
     }
   }
 }

@@ -8,13 +8,14 @@
 
 namespace t2m::gemm_detail {
 
-// C[0:MR, 0:kLanes*NV] = alpha * ap^T bp + beta * C (beta == 0: C never read); packed layouts as in gemm_kernel.h,
+// C[0:MR, 0:kLanes*NV] = alpha * ap^T bp + beta * C (beta == 0: C never read; then bias, when not null, is added to
+// every row as fma(alpha, acc, bias[j]): the bias epilogue of a linear layer); packed layouts as in gemm_kernel.h,
 // the A panel AS rows wide (AS > MR: the first MR rows of a wider panel, for the short last panel of C). Per k: NV
 // vectors of B, MR broadcasts of A, MR*NV FMAs into the accumulators; PrefetchA pulls the A panel 8 k steps ahead
 // into L1. Each C element gets the same FMA chain whatever MR and AS, so a short kernel gives the full one's bits.
 template <typename V, int MR, int NV, bool PrefetchA, int AS = MR>
 void simd_kernel(int64_t kc, const typename V::T* ap, const typename V::T* bp, typename V::T* c, int64_t ldc,
-                 typename V::T alpha, typename V::T beta) {
+                 typename V::T alpha, typename V::T beta, const typename V::T* bias) {
   using R = typename V::Reg;
   constexpr int L = V::kLanes;
   R acc[MR][NV];
@@ -37,7 +38,15 @@ void simd_kernel(int64_t kc, const typename V::T* ap, const typename V::T* bp, t
     bp += L * NV;
   }
   const R va = V::set1(alpha);
-  if (beta == typename V::T(0)) {
+  if (beta == typename V::T(0) && bias) {
+    R bv[NV];
+#pragma GCC unroll 4
+    for (int v = 0; v < NV; ++v) bv[v] = V::loadu(bias + L * v);
+#pragma GCC unroll 32
+    for (int i = 0; i < MR; ++i)
+#pragma GCC unroll 4
+      for (int v = 0; v < NV; ++v) V::storeu(c + i * ldc + L * v, V::fmadd(va, acc[i][v], bv[v]));
+  } else if (beta == typename V::T(0)) {
 #pragma GCC unroll 32
     for (int i = 0; i < MR; ++i)
 #pragma GCC unroll 4
