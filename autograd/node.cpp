@@ -3,6 +3,7 @@
 
 #include "autograd/no_grad.h"
 #include "autograd/variable.h"
+#include "tensor/ops.h"
 
 namespace t2m::ag {
 
@@ -55,6 +56,10 @@ Variable record(const char* op, Tensor out, const std::vector<Variable>& inputs,
   }
   node->backward = std::move(backward);
   return Variable::from_node(std::move(out), std::move(node));
+}
+
+Tensor reduce_grad_to(const Tensor& g, const Shape& shape) {
+  return g.shape() == shape && g.is_contiguous() ? g : sum_to(g, shape);
 }
 
 }  // namespace t2m::ag

@@ -54,4 +54,9 @@ Variable record(const char* op, Tensor out, const std::vector<Variable>& inputs,
 // True when grad mode is on and at least one of the inputs requires grad (ops use it to skip saving tensors).
 bool any_requires_grad(const std::vector<Variable>& inputs);
 
+// A gradient g summed down to an input's shape (undoing broadcasting): g itself, no copy, when it already has that
+// shape and is contiguous, else sum_to(g, shape). Sharing g is safe: the engine sums the gradients of a node out of
+// place and adopts a tensor as a leaf's .grad only when it holds the sole handle on it.
+Tensor reduce_grad_to(const Tensor& g, const Shape& shape);
+
 }  // namespace t2m::ag

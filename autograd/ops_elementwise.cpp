@@ -1,5 +1,5 @@
 // ops_elementwise.cpp — forward/backward pairs of the binary elementwise ops. In every backward: g is the output
-// gradient of shape broadcast(A, B); da/db are reduced to A/B with reduce_to (sum_to where broadcasting happened).
+// gradient of shape broadcast(A, B); da/db are reduced to A/B with reduce_grad_to (node.h).
 #include "autograd/ops_elementwise.h"
 
 #include "autograd/ops_unary.h"
@@ -11,69 +11,63 @@ namespace {
 
 Tensor zero_like_scalar(const Tensor& t) { return Tensor::zeros({}, t.dtype()); }
 
-// g summed down to shape s; g itself (no copy) when nothing was broadcast and g is contiguous. Sharing is safe: the
-// engine sums the gradients of a node out of place and adopts a tensor as a leaf's .grad only when it holds the sole
-// handle on it.
-Tensor reduce_to(const Tensor& g, const Shape& s) {
-  return g.shape() == s && g.is_contiguous() ? g : sum_to(g, s);
-}
-
 // maximum/minimum: wa = 1 where a wins, 1/2 on ties, 0 where b wins (out shape). da = g*wa, db = g*(1-wa).
 std::vector<Tensor> select_backward(const Tensor& g, const Tensor& wa, const Shape& A, const Shape& B,
                                     const std::vector<bool>& need) {
   Tensor ga = mul(g, wa);
-  return {need[0] ? reduce_to(ga, A) : Tensor(), need[1] ? reduce_to(sub(g, ga), B) : Tensor()};
+  return {need[0] ? reduce_grad_to(ga, A) : Tensor(), need[1] ? reduce_grad_to(sub(g, ga), B) : Tensor()};
 }
 
 }  // namespace
 
-// out = a + b. da = reduce_to(g, A), db = reduce_to(g, B).
+// out = a + b. da = reduce_grad_to(g, A), db = reduce_grad_to(g, B).
 Variable add(const Variable& a, const Variable& b) {
   Shape A = a.shape(), B = b.shape();
   return record("add", t2m::add(a.data(), b.data()), {a, b}, [A, B](const Tensor& g, const std::vector<bool>& need) {
-    return std::vector<Tensor>{need[0] ? reduce_to(g, A) : Tensor(), need[1] ? reduce_to(g, B) : Tensor()};
+    return std::vector<Tensor>{need[0] ? reduce_grad_to(g, A) : Tensor(), need[1] ? reduce_grad_to(g, B) : Tensor()};
   });
 }
 
-// out = a - b. da = reduce_to(g, A), db = -reduce_to(g, B).
+// out = a - b. da = reduce_grad_to(g, A), db = -reduce_grad_to(g, B).
 Variable sub(const Variable& a, const Variable& b) {
   Shape A = a.shape(), B = b.shape();
   return record("sub", t2m::sub(a.data(), b.data()), {a, b}, [A, B](const Tensor& g, const std::vector<bool>& need) {
-    return std::vector<Tensor>{need[0] ? reduce_to(g, A) : Tensor(), need[1] ? t2m::neg(reduce_to(g, B)) : Tensor()};
+    return std::vector<Tensor>{need[0] ? reduce_grad_to(g, A) : Tensor(),
+                               need[1] ? t2m::neg(reduce_grad_to(g, B)) : Tensor()};
   });
 }
 
-// out = a * b. da = reduce_to(g * b, A), db = reduce_to(g * a, B).
+// out = a * b. da = reduce_grad_to(g * b, A), db = reduce_grad_to(g * a, B).
 // Saves a only when b needs a gradient and vice versa (x * constant_mask does not keep x alive).
 Variable mul(const Variable& a, const Variable& b) {
   Shape A = a.shape(), B = b.shape();
   Tensor sa = b.requires_grad() ? a.data() : Tensor(), sb = a.requires_grad() ? b.data() : Tensor();
   return record("mul", t2m::mul(a.data(), b.data()), {a, b},
                 [sa, sb, A, B](const Tensor& g, const std::vector<bool>& need) {
-                  return std::vector<Tensor>{need[0] ? reduce_to(t2m::mul(g, sb), A) : Tensor(),
-                                             need[1] ? reduce_to(t2m::mul(g, sa), B) : Tensor()};
+                  return std::vector<Tensor>{need[0] ? reduce_grad_to(t2m::mul(g, sb), A) : Tensor(),
+                                             need[1] ? reduce_grad_to(t2m::mul(g, sa), B) : Tensor()};
                 });
 }
 
-// out = a / b. da = reduce_to(g / b, A), db = reduce_to(-g * out / b, B).
+// out = a / b. da = reduce_grad_to(g / b, A), db = reduce_grad_to(-g * out / b, B).
 Variable div(const Variable& a, const Variable& b) {
   Tensor ta = a.data(), tb = b.data();
   Tensor out = t2m::div(ta, tb);
   return record("div", out, {a, b}, [ta, tb, out](const Tensor& g, const std::vector<bool>& need) {
     Tensor gb = t2m::div(g, tb);
-    return std::vector<Tensor>{need[0] ? reduce_to(gb, ta.shape()) : Tensor(),
-                               need[1] ? t2m::neg(reduce_to(t2m::mul(gb, out), tb.shape())) : Tensor()};
+    return std::vector<Tensor>{need[0] ? reduce_grad_to(gb, ta.shape()) : Tensor(),
+                               need[1] ? t2m::neg(reduce_grad_to(t2m::mul(gb, out), tb.shape())) : Tensor()};
   });
 }
 
-// out = a ^ b. da = reduce_to(g * b * a^(b-1), A), db = reduce_to(g * out * log(a), B).
+// out = a ^ b. da = reduce_grad_to(g * b * a^(b-1), A), db = reduce_grad_to(g * out * log(a), B).
 Variable pow(const Variable& a, const Variable& b) {
   Tensor ta = a.data(), tb = b.data();
   Tensor out = t2m::pow(ta, tb);
   return record("pow", out, {a, b}, [ta, tb, out](const Tensor& g, const std::vector<bool>& need) {
     Tensor da, db;
-    if (need[0]) da = reduce_to(t2m::mul(g, t2m::mul(tb, t2m::pow(ta, t2m::add(tb, -1.0)))), ta.shape());
-    if (need[1]) db = reduce_to(t2m::mul(g, t2m::mul(out, t2m::log(ta))), tb.shape());
+    if (need[0]) da = reduce_grad_to(t2m::mul(g, t2m::mul(tb, t2m::pow(ta, t2m::add(tb, -1.0)))), ta.shape());
+    if (need[1]) db = reduce_grad_to(t2m::mul(g, t2m::mul(out, t2m::log(ta))), tb.shape());
     return std::vector<Tensor>{da, db};
   });
 }
@@ -140,15 +134,15 @@ Variable pow(const Variable& a, double e) {
 
 // ---- selection ------------------------------------------------------------------------------------------------
 
-// out = cond ? a : b, shape broadcast(C, A, B). da = reduce_to(where(cond, g, 0), A),
-// db = reduce_to(where(cond, 0, g), B).
+// out = cond ? a : b, shape broadcast(C, A, B). da = reduce_grad_to(where(cond, g, 0), A),
+// db = reduce_grad_to(where(cond, 0, g), B).
 Variable where(const Tensor& cond, const Variable& a, const Variable& b) {
   Shape A = a.shape(), B = b.shape();
   return record("where", t2m::where(cond, a.data(), b.data()), {a, b},
                 [cond, A, B](const Tensor& g, const std::vector<bool>& need) {
                   Tensor z = zero_like_scalar(g);
-                  return std::vector<Tensor>{need[0] ? reduce_to(t2m::where(cond, g, z), A) : Tensor(),
-                                             need[1] ? reduce_to(t2m::where(cond, z, g), B) : Tensor()};
+                  return std::vector<Tensor>{need[0] ? reduce_grad_to(t2m::where(cond, g, z), A) : Tensor(),
+                                             need[1] ? reduce_grad_to(t2m::where(cond, z, g), B) : Tensor()};
                 });
 }
 

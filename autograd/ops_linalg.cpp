@@ -35,8 +35,8 @@ Variable matmul(const Variable& a, const Variable& b) {
     Tensor a2 = sa.defined() ? sa.reshape(A2) : sa, b2 = sb.defined() ? sb.reshape(B2) : sb;
     Tensor da, db;
     matmul_t_backward(da, db, g2, a2, false, b2, false, need);
-    if (need[0]) da = sum_to(da, A2).reshape(A);
-    if (need[1]) db = sum_to(db, B2).reshape(B);
+    if (need[0]) da = reduce_grad_to(da, A2).reshape(A);
+    if (need[1]) db = reduce_grad_to(db, B2).reshape(B);
     return std::vector<Tensor>{da, db};
   });
 }
@@ -49,8 +49,8 @@ Variable matmul_t(const Variable& a, bool trans_a, const Variable& b, bool trans
                 [sa, sb, A, B, trans_a, trans_b](const Tensor& g, const std::vector<bool>& need) {
                   Tensor da, db;
                   matmul_t_backward(da, db, g, sa, trans_a, sb, trans_b, need);
-                  if (need[0]) da = sum_to(da, A);
-                  if (need[1]) db = sum_to(db, B);
+                  if (need[0]) da = reduce_grad_to(da, A);
+                  if (need[1]) db = reduce_grad_to(db, B);
                   return std::vector<Tensor>{da, db};
                 });
 }

@@ -72,10 +72,11 @@ Variable narrow(const Variable& a, int64_t dim, int64_t start, int64_t length) {
   });
 }
 
-// out = a broadcast to shape; da = sum_to(g, A)
+// out = a broadcast to shape; da = g summed back to A (reduce_grad_to)
 Variable expand(const Variable& a, const Shape& shape) {
   Shape A = a.shape();
-  return record("expand", a.data().expand(shape), {a}, [A](const Tensor& g, const Need&) { return Grads{sum_to(g, A)}; });
+  return record("expand", a.data().expand(shape), {a},
+                [A](const Tensor& g, const Need&) { return Grads{reduce_grad_to(g, A)}; });
 }
 
 // out = contiguous copy of a (or a itself); da = g
