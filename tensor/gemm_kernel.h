@@ -24,7 +24,7 @@ struct MicroKernel {
   int64_t mc, kc, nc;  // cache blocking: A block mc×kc (L2), B micro-panel kc×nr (L1), B block kc×nc (L3)
   void (*kernel)(int64_t kc, const T* ap, const T* bp, T* c, int64_t ldc, T alpha, T beta, const T* bias);
   // Kernels for the short last panel of C (m < mr rows, full nr columns), reading the first rows of an mr-wide A
-  // panel and writing only those rows: short[0] covers m <= short_m[0], short[1] m <= short_m[1] (null: none).
+  // panel and writing only those rows: short_kernel[i] serves m == short_m[i] exactly (null: none).
   // Without them a short panel costs a full mr-row kernel into a scratch tile plus a copy (for M = 256 and mr = 12
   // that is 3% more kernel work).
   int short_m[2];
