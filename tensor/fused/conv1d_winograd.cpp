@@ -104,46 +104,61 @@ void weight_transform_backward(T* dw, const T* dU, const Conv1dShape& s) {
     }
 }
 
-// The tile transforms work per channel on the whole chunk at once, in two steps: a gather (or scatter) between a
-// sample's frame row and "tap rows" P[k][b * nT + j] = row_b[base_j + k d], then the small coefficient matrix
-// applied across the N columns of contiguous tap rows (vectorised). Tiles are walked as (block q, residue r),
-// j = d q + r, base = m d q + r (no division); for d = 1 a tap row is a stride-m gather.
+// The tile transforms work on blocks of kChanBlock channels, in two steps each: a copy of the block's frame rows
+// of all nb samples of the chunk into a staging buffer (padded as the convolution pads), then per channel one long
+// gather (or scatter) between the staged rows and "tap rows" P[k][b * nT + j] = rows_b[base_j + k d] through an
+// offset table computed once per chunk, and the small coefficient matrix applied across the N columns of the
+// contiguous tap rows (vectorised). Every loop runs over a whole chunk (N columns) rather than one sample's nT
+// tiles, and no loop depends on the dilation.
 
-// P[k][j] = row[base_j + k d], k < NTAP, for the nT tiles of one sample; row must cover every frame read.
-template <typename T, int NTAP, int M>
-void gather_taps(T* P, int64_t ldp, const T* row, int64_t nT, int64_t d) {
-  if (d == 1) {
-    for (int k = 0; k < NTAP; ++k)
-      for (int64_t j = 0; j < nT; ++j) P[k * ldp + j] = row[M * j + k];
-    return;
-  }
-  for (int k = 0; k < NTAP; ++k) {
-    T* p = P + k * ldp;
-    for (int64_t j0 = 0, base0 = k * d; j0 < nT; j0 += d, base0 += M * d) {
-      const int64_t rn = nT - j0 < d ? nT - j0 : d;
-      const T* src = row + base0;
-      for (int64_t r = 0; r < rn; ++r) p[j0 + r] = src[r];
-    }
+// tap[k * ldt + b * nT + j] = b * ld + base_j + k d for k < ntap, b < nb, j < nT (base_j = m d (j / d) + j % d):
+// where tap k of tile j of sample b sits in nb stacked rows of ld frames.
+void tap_offsets(int32_t* tap, int ntap, int m, const Geo& g, int64_t nb, int64_t ld, int64_t ldt) {
+  for (int64_t j = 0; j < g.nT; ++j) {
+    const int64_t base = m * g.d * (j / g.d) + j % g.d;
+    for (int k = 0; k < ntap; ++k)
+      for (int64_t b = 0; b < nb; ++b) tap[k * ldt + b * g.nT + j] = (int32_t)(b * ld + base + k * g.d);
   }
 }
 
-// row[base_j + k d] (+)= P[k][j]: the inverse of gather_taps. Add = true accumulates (tiles overlap; k outer, so
-// the order of the sums is fixed), Add = false writes (the output frames of distinct tiles are distinct).
-template <typename T, int NTAP, int M, bool Add>
-void scatter_taps(T* row, const T* P, int64_t ldp, int64_t nT, int64_t d) {
-  if (d == 1) {
-    for (int k = 0; k < NTAP; ++k)
-      for (int64_t j = 0; j < nT; ++j) row[M * j + k] = Add ? row[M * j + k] + P[k * ldp + j] : P[k * ldp + j];
-    return;
-  }
+// P[k][n] = rows[tap[k][n]] for k < NTAP, n < N. Not inlined: inside the transforms' lambdas the loop counters
+// were kept on the stack (a store-to-load chain per element, 3x slower).
+template <typename T, int NTAP>
+[[gnu::noinline]] void gather_taps(T* __restrict P, const T* __restrict rows, const int32_t* __restrict tap,
+                                   int64_t N) {
   for (int k = 0; k < NTAP; ++k) {
-    const T* p = P + k * ldp;
-    for (int64_t j0 = 0, base0 = k * d; j0 < nT; j0 += d, base0 += M * d) {
-      const int64_t rn = nT - j0 < d ? nT - j0 : d;
-      T* dst = row + base0;
-      for (int64_t r = 0; r < rn; ++r) dst[r] = Add ? dst[r] + p[j0 + r] : p[j0 + r];
-    }
+    const int32_t* t = tap + k * N;
+    T* p = P + k * N;
+    for (int64_t n = 0; n < N; ++n) p[n] = rows[t[n]];
   }
+}
+
+// rows[tap[k][n]] += P[k][n], k outer (every frame sums its terms in the order of k).
+template <typename T, int NTAP>
+[[gnu::noinline]] void scatter_add_taps(T* __restrict rows, const T* __restrict P, const int32_t* __restrict tap,
+                                        int64_t N) {
+  for (int k = 0; k < NTAP; ++k) {
+    const int32_t* t = tap + k * N;
+    const T* p = P + k * N;
+    for (int64_t n = 0; n < N; ++n) rows[t[n]] += p[n];
+  }
+}
+
+// xs[(cl * nb + b) * L + p] = the padded frame p of channel c0 + cl of sample b0 + b: nl copies of the left pad
+// value (frame 0 when causal, else 0), the nx frames of x, zeros up to L.
+template <typename T>
+[[gnu::noinline]] void stage_input_rows(T* __restrict xs, const T* __restrict inp, const Conv1dShape& s,
+                                        int64_t b0, int64_t nb, int64_t c0, int64_t cn, int64_t L, int64_t nl,
+                                        int64_t nx) {
+  for (int64_t b = 0; b < nb; ++b)
+    for (int64_t cl = 0; cl < cn; ++cl) {
+      const T* x = inp + ((b0 + b) * s.Cin + c0 + cl) * s.T;
+      T* xp = xs + (cl * nb + b) * L;
+      const T left = s.causal ? x[0] : (T)0;
+      for (int64_t p = 0; p < nl; ++p) xp[p] = left;
+      for (int64_t p = 0; p < nx; ++p) xp[nl + p] = x[p];
+      for (int64_t p = nl + nx; p < L; ++p) xp[p] = 0;
+    }
 }
 
 // out[i][n] = sum_k C[i][k] in[k][n] for n < N (Transposed: C[k][i]); the coefficients are compile-time constants.
@@ -161,14 +176,13 @@ void combine_rows(T* out, int64_t ldo, const T* in, int64_t ldi, int64_t N, cons
   }
 }
 
-// The transforms go through channels in blocks of kChanBlock: for one sample the rows of a block are adjacent in
-// memory (kChanBlock * T floats read or written in order), where one channel at a time would touch a new page per
-// sample.
+// The blocks keep the reads and writes of the staging copies in order: for one sample the frame rows of a block
+// are adjacent in memory (kChanBlock * T floats), where one channel at a time would touch a new page per sample.
 constexpr int64_t kChanBlock = 8;
 
-// f(c0, cn, blk, row) for the channel blocks [c0, c0 + cn) of C channels, split statically over the threads; blk
-// (kChanBlock * ldb elements: the block's tap rows) and row (nrow elements: one frame row) are the calling thread's
-// scratch (slots 4 and 5; the callers of the transforms hold slots 0-3).
+// f(c0, cn, blk, rows) for the channel blocks [c0, c0 + cn) of C channels, split statically over the threads; blk
+// (kChanBlock * ldb elements: the block's tap rows) and rows (nrow elements: staged frame rows) are the calling
+// thread's scratch (slots 4 and 5; the callers of the transforms hold slots 0-3, the offset tables slot 6).
 template <typename T, typename F>
 void for_channel_blocks(int64_t C, int64_t work, int64_t ldb, int64_t nrow, F&& f) {
   const int64_t nblk = (C + kChanBlock - 1) / kChanBlock;
@@ -176,49 +190,52 @@ void for_channel_blocks(int64_t C, int64_t work, int64_t ldb, int64_t nrow, F&& 
 #pragma omp parallel num_threads(nt) if (nt > 1)
   {
     T* blk = fused_scratch<T>(4, kChanBlock * ldb);
-    T* row = fused_scratch<T>(5, nrow);
+    T* rows = fused_scratch<T>(5, nrow);
 #pragma omp for schedule(static)
     for (int64_t cb = 0; cb < nblk; ++cb) {
       const int64_t c0 = cb * kChanBlock;
-      f(c0, C - c0 < kChanBlock ? C - c0 : kChanBlock, blk, row);
+      f(c0, C - c0 < kChanBlock ? C - c0 : kChanBlock, blk, rows);
     }
   }
 }
 
-// V[i][ci, b * nT + j] = sum_k BT[i][k] xpad[b0 + b, ci, base_j + k d]. Each row is first copied into a padded
-// row (replicate/zero frames on the left, zeros on the right) so that tiles are gathered without bounds checks.
+// V[i][ci, b * nT + j] = sum_k BT[i][k] xpad[b0 + b, ci, base_j + k d]. The staged rows are the padded input
+// (replicate/zero frames on the left, zeros on the right), so the gather needs no bounds checks.
 template <typename T, int M>
 void input_transform(T* V, const T* inp, const Conv1dShape& s, const Geo& g, int64_t b0, int64_t nb) {
   using W = Wino<M>;
   const int64_t L = g.To + (W::A - 1) * g.d, ldp = W::A * g.N;  // L: padded frames any tile touches
   const int64_t nl = g.padL < L ? g.padL : L, nx = L - nl < s.T ? L - nl : s.T;
-  for_channel_blocks<T>(s.Cin, W::A * s.Cin * g.N, ldp, L, [&](int64_t c0, int64_t cn, T* P, T* xp) {
-    for (int64_t b = 0; b < nb; ++b)
-      for (int64_t cl = 0; cl < cn; ++cl) {
-        const T* x = inp + ((b0 + b) * s.Cin + c0 + cl) * s.T;
-        const T left = s.causal ? x[0] : (T)0;
-        for (int64_t p = 0; p < nl; ++p) xp[p] = left;
-        for (int64_t p = 0; p < nx; ++p) xp[nl + p] = x[p];
-        for (int64_t p = nl + nx; p < L; ++p) xp[p] = 0;
-        gather_taps<T, W::A, M>(P + cl * ldp + b * g.nT, g.N, xp, g.nT, g.d);
-      }
-    for (int64_t cl = 0; cl < cn; ++cl)
+  int32_t* tap = fused_scratch<int32_t>(6, W::A * g.N);
+  tap_offsets(tap, W::A, M, g, nb, L, g.N);
+  for_channel_blocks<T>(s.Cin, W::A * s.Cin * g.N, ldp, kChanBlock * nb * L, [&](int64_t c0, int64_t cn, T* P, T* xs) {
+    stage_input_rows(xs, inp, s, b0, nb, c0, cn, L, nl, nx);
+    for (int64_t cl = 0; cl < cn; ++cl) {
+      gather_taps<T, W::A>(P + cl * ldp, xs + cl * nb * L, tap, g.N);
       combine_rows<T, W::A, W::A, false>(V + (c0 + cl) * g.N, s.Cin * g.N, P + cl * ldp, g.N, g.N, W::BT);
+    }
   });
 }
 
-// dinp[b0 + b, ci, :] = fold(sum over tiles of BT^T dV[:][ci, b * nT + j] placed at base_j + k d).
+// dinp[b0 + b, ci, :] = fold(sum over tiles of BT^T dV[:][ci, b * nT + j] placed at base_j + k d): the tap rows
+// are added into zeroed staged rows (k outer, so every frame sums its terms in a fixed order), then copied out.
 template <typename T, int M>
 void input_transform_backward(T* dinp, const T* dV, const Conv1dShape& s, const Geo& g, int64_t b0, int64_t nb) {
   using W = Wino<M>;
   const int64_t L = g.To + (W::A - 1) * g.d, ldp = W::A * g.N;  // L: padded frames any tile touches (>= T + padL)
-  for_channel_blocks<T>(s.Cin, W::A * s.Cin * g.N, ldp, L, [&](int64_t c0, int64_t cn, T* P, T* buf) {
-    for (int64_t cl = 0; cl < cn; ++cl)
-      combine_rows<T, W::A, W::A, true>(P + cl * ldp, g.N, dV + (c0 + cl) * g.N, s.Cin * g.N, g.N, W::BT);
+  int32_t* tap = fused_scratch<int32_t>(6, W::A * g.N);
+  tap_offsets(tap, W::A, M, g, nb, L, g.N);
+  for_channel_blocks<T>(s.Cin, W::A * s.Cin * g.N, ldp, kChanBlock * nb * L, [&](int64_t c0, int64_t cn, T* P, T* bs) {
+    for (int64_t cl = 0; cl < cn; ++cl) {
+      T* p = P + cl * ldp;
+      T* buf = bs + cl * nb * L;
+      combine_rows<T, W::A, W::A, true>(p, g.N, dV + (c0 + cl) * g.N, s.Cin * g.N, g.N, W::BT);
+      for (int64_t q = 0; q < nb * L; ++q) buf[q] = 0;
+      scatter_add_taps<T, W::A>(buf, p, tap, g.N);
+    }
     for (int64_t b = 0; b < nb; ++b)
       for (int64_t cl = 0; cl < cn; ++cl) {
-        for (int64_t p = 0; p < L; ++p) buf[p] = 0;
-        scatter_taps<T, W::A, M, true>(buf, P + cl * ldp + b * g.nT, g.N, g.nT, g.d);
+        const T* buf = bs + (cl * nb + b) * L;
         T* dx = dinp + ((b0 + b) * s.Cin + c0 + cl) * s.T;
         for (int64_t t = 0; t < s.T; ++t) dx[t] = buf[g.padL + t];
         if (s.causal)
@@ -227,41 +244,60 @@ void input_transform_backward(T* dinp, const T* dV, const Conv1dShape& s, const 
   });
 }
 
-// out[b0 + b, co, base_j + r d] = bias[co] + sum_i AT[r][i] Mx[i][co, b * nT + j] for the frames below To (the
-// rows are written into a scratch row with (m - 1) d frames of slack for the dropped outputs, then copied).
+// out[b0 + b, c0 + cl, t] = Y[cl][src[t] + b * nT] + bias[c0 + cl] for t < To.
+template <typename T>
+[[gnu::noinline]] void gather_output_rows(T* __restrict out, const T* __restrict Y, int64_t ldy,
+                                          const int32_t* __restrict src, const T* bias, const Conv1dShape& s,
+                                          const Geo& g, int64_t b0, int64_t nb, int64_t c0, int64_t cn) {
+  for (int64_t b = 0; b < nb; ++b)
+    for (int64_t cl = 0; cl < cn; ++cl) {
+      const T* yb = Y + cl * ldy + b * g.nT;
+      const T bv = bias ? bias[c0 + cl] : (T)0;
+      T* y = out + ((b0 + b) * s.Cout + c0 + cl) * g.To;
+      for (int64_t t = 0; t < g.To; ++t) y[t] = yb[src[t]] + bv;
+    }
+}
+
+// out[b0 + b, co, base_j + r d] = bias[co] + sum_i AT[r][i] Mx[i][co, b * nT + j] for the frames below To: each
+// frame t of a sample reads its tile's row r at src[t] = r * N + j (the outputs at or past To are dropped).
 template <typename T, int M>
 void output_transform(T* out, const T* Mx, const T* bias, const Conv1dShape& s, const Geo& g, int64_t b0,
                       int64_t nb) {
   using W = Wino<M>;
-  const int64_t Lo = M * g.d * ((g.nT + g.d - 1) / g.d), ldp = M * g.N;  // Lo: frames the tiles cover (>= To)
-  for_channel_blocks<T>(s.Cout, W::A * s.Cout * g.N, ldp, Lo, [&](int64_t c0, int64_t cn, T* Y, T* row) {
+  const int64_t ldp = M * g.N;
+  int32_t* src = fused_scratch<int32_t>(6, g.To);
+  for (int64_t j = 0; j < g.nT; ++j) {
+    const int64_t base = M * g.d * (j / g.d) + j % g.d;
+    for (int r = 0; r < M; ++r)
+      if (base + r * g.d < g.To) src[base + r * g.d] = (int32_t)(r * g.N + j);
+  }
+  for_channel_blocks<T>(s.Cout, W::A * s.Cout * g.N, ldp, 0, [&](int64_t c0, int64_t cn, T* Y, T*) {
     for (int64_t cl = 0; cl < cn; ++cl)
       combine_rows<T, M, W::A, false>(Y + cl * ldp, g.N, Mx + (c0 + cl) * g.N, s.Cout * g.N, g.N, W::AT);
-    for (int64_t b = 0; b < nb; ++b)
-      for (int64_t cl = 0; cl < cn; ++cl) {
-        scatter_taps<T, M, M, false>(row, Y + cl * ldp + b * g.nT, g.N, g.nT, g.d);
-        const T bv = bias ? bias[c0 + cl] : (T)0;
-        T* y = out + ((b0 + b) * s.Cout + c0 + cl) * g.To;
-        for (int64_t t = 0; t < g.To; ++t) y[t] = row[t] + bv;
-      }
+    gather_output_rows(out, Y, ldp, src, bias, s, g, b0, nb, c0, cn);
   });
 }
 
-// dM[i][co, b * nT + j] = sum_r AT[r][i] dy[b0 + b, co, base_j + r d] (0 for frames at or past To).
+// dM[i][co, b * nT + j] = sum_r AT[r][i] dy[b0 + b, co, base_j + r d] (0 for frames at or past To): the dy rows
+// are staged with a zero tail up to Lo, then gathered like the input.
 template <typename T, int M>
 void output_transform_backward(T* dM, const T* dout, const Conv1dShape& s, const Geo& g, int64_t b0, int64_t nb) {
   using W = Wino<M>;
   const int64_t Lo = M * g.d * ((g.nT + g.d - 1) / g.d), ldp = M * g.N;  // Lo: frames the tiles cover (>= To)
-  for_channel_blocks<T>(s.Cout, W::A * s.Cout * g.N, ldp, Lo, [&](int64_t c0, int64_t cn, T* D, T* row) {
-    for (int64_t t = g.To; t < Lo; ++t) row[t] = 0;  // frames past To: zero gradient
+  int32_t* tap = fused_scratch<int32_t>(6, M * g.N);
+  tap_offsets(tap, M, M, g, nb, Lo, g.N);
+  for_channel_blocks<T>(s.Cout, W::A * s.Cout * g.N, ldp, kChanBlock * nb * Lo, [&](int64_t c0, int64_t cn, T* D, T* ds) {
     for (int64_t b = 0; b < nb; ++b)
       for (int64_t cl = 0; cl < cn; ++cl) {
         const T* dy = dout + ((b0 + b) * s.Cout + c0 + cl) * g.To;
+        T* row = ds + (cl * nb + b) * Lo;
         for (int64_t t = 0; t < g.To; ++t) row[t] = dy[t];
-        gather_taps<T, M, M>(D + cl * ldp + b * g.nT, g.N, row, g.nT, g.d);
+        for (int64_t t = g.To; t < Lo; ++t) row[t] = 0;  // frames past To: zero gradient
       }
-    for (int64_t cl = 0; cl < cn; ++cl)
+    for (int64_t cl = 0; cl < cn; ++cl) {
+      gather_taps<T, M>(D + cl * ldp, ds + cl * nb * Lo, tap, g.N);
       combine_rows<T, W::A, M, true>(dM + (c0 + cl) * g.N, s.Cout * g.N, D + cl * ldp, g.N, g.N, W::AT);
+    }
   });
 }
 

@@ -12,7 +12,7 @@
 
 namespace t2m::fused {
 
-constexpr int kScratchSlots = 6;
+constexpr int kScratchSlots = 8;
 
 void* fused_scratch_bytes(int slot, size_t nbytes);
 void fused_scratch_release();
