@@ -74,57 +74,46 @@ void pack_rows_into_panels(int64_t kc, int64_t nc, const T* src, int64_t ld, T* 
   }
 }
 
+// Panels of width W from a column-major source: panel p gets source rows [p W, p W + W) (row stride ld), as
+// columns: out[k * W + i] = src[(p W + i) * ld + k] for k < kc, zero padded past nc rows. The layout of both
+// pack_a (no trans) and pack_b (trans).
+template <typename T, int W>
+void pack_transposed_into_panels(int64_t kc, int64_t nc, const T* src, int64_t ld, T* out) {
+  for (int64_t i0 = 0; i0 < nc; i0 += W, out += kc * W) {
+    const int64_t n = nc - i0 < W ? nc - i0 : W;
+    const T* s0 = src + i0 * ld;
+    if (n == W) {
+      // Four k at a time keeps the strided writes of one source row in few cache lines.
+      int64_t k = 0;
+      for (; k + 4 <= kc; k += 4)
+        for (int i = 0; i < W; ++i) {
+          const T* s = s0 + i * ld + k;
+          out[(k + 0) * W + i] = s[0];
+          out[(k + 1) * W + i] = s[1];
+          out[(k + 2) * W + i] = s[2];
+          out[(k + 3) * W + i] = s[3];
+        }
+      for (; k < kc; ++k)
+        for (int i = 0; i < W; ++i) out[k * W + i] = s0[i * ld + k];
+    } else {
+      for (int64_t k = 0; k < kc; ++k)
+        for (int i = 0; i < W; ++i) out[k * W + i] = i < n ? s0[i * ld + k] : T(0);
+    }
+  }
+}
+
 // pack_a_panels: op(A) is mc×kc; trans means A is stored kc×mc (A[k*lda + i]).
 template <typename T, int MR>
 void pack_a_panels(bool trans, int64_t mc, int64_t kc, const T* a, int64_t lda, T* ap) {
   if (trans) return pack_rows_into_panels<T, MR>(kc, mc, a, lda, ap);
-  for (int64_t i0 = 0; i0 < mc; i0 += MR, ap += kc * MR) {
-    const int64_t m = mc - i0 < MR ? mc - i0 : MR;
-    const T* src = a + i0 * lda;
-    if (m == MR) {
-      // Four k at a time keeps the strided writes of one row in few cache lines.
-      int64_t k = 0;
-      for (; k + 4 <= kc; k += 4)
-        for (int i = 0; i < MR; ++i) {
-          const T* s = src + i * lda + k;
-          ap[(k + 0) * MR + i] = s[0];
-          ap[(k + 1) * MR + i] = s[1];
-          ap[(k + 2) * MR + i] = s[2];
-          ap[(k + 3) * MR + i] = s[3];
-        }
-      for (; k < kc; ++k)
-        for (int i = 0; i < MR; ++i) ap[k * MR + i] = src[i * lda + k];
-    } else {
-      for (int64_t k = 0; k < kc; ++k)
-        for (int i = 0; i < MR; ++i) ap[k * MR + i] = i < m ? src[i * lda + k] : T(0);
-    }
-  }
+  pack_transposed_into_panels<T, MR>(kc, mc, a, lda, ap);
 }
 
 // pack_b_panels: op(B) is kc×nc; trans means B is stored nc×kc (B[j*ldb + k]).
 template <typename T, int NR>
 void pack_b_panels(bool trans, int64_t kc, int64_t nc, const T* b, int64_t ldb, T* bp) {
   if (!trans) return pack_rows_into_panels<T, NR>(kc, nc, b, ldb, bp);
-  for (int64_t j0 = 0; j0 < nc; j0 += NR, bp += kc * NR) {
-    const int64_t n = nc - j0 < NR ? nc - j0 : NR;
-    const T* src = b + j0 * ldb;
-    if (n == NR) {
-      int64_t k = 0;
-      for (; k + 4 <= kc; k += 4)
-        for (int j = 0; j < NR; ++j) {
-          const T* s = src + j * ldb + k;
-          bp[(k + 0) * NR + j] = s[0];
-          bp[(k + 1) * NR + j] = s[1];
-          bp[(k + 2) * NR + j] = s[2];
-          bp[(k + 3) * NR + j] = s[3];
-        }
-      for (; k < kc; ++k)
-        for (int j = 0; j < NR; ++j) bp[k * NR + j] = src[j * ldb + k];
-    } else {
-      for (int64_t k = 0; k < kc; ++k)
-        for (int j = 0; j < NR; ++j) bp[k * NR + j] = j < n ? src[j * ldb + k] : T(0);
-    }
-  }
+  pack_transposed_into_panels<T, NR>(kc, nc, b, ldb, bp);
 }
 
 }  // namespace t2m::gemm_detail
