@@ -7,6 +7,7 @@
 // N = tiles of the chunk, column b * nT + j; tiles are enumerated as in the header.
 #include "tensor/fused/conv1d_winograd.h"
 
+#include <cstdint>
 #include <string>
 
 #include "tensor/fused/kernel_util.h"
@@ -114,6 +115,9 @@ void weight_transform_backward(T* dw, const T* dU, const Conv1dShape& s) {
 // tap[k * ldt + b * nT + j] = b * ld + base_j + k d for k < ntap, b < nb, j < nT (base_j = m d (j / d) + j % d):
 // where tap k of tile j of sample b sits in nb stacked rows of ld frames.
 void tap_offsets(int32_t* tap, int ntap, int m, const Geo& g, int64_t nb, int64_t ld, int64_t ldt) {
+  if (nb * ld > INT32_MAX)
+    throw Error("conv1d_winograd: a chunk of " + std::to_string(nb) + " samples x " + std::to_string(ld) +
+                " padded frames overflows the int32 offset table");
   for (int64_t j = 0; j < g.nT; ++j) {
     const int64_t base = m * g.d * (j / g.d) + j % g.d;
     for (int k = 0; k < ntap; ++k)
