@@ -112,14 +112,17 @@ void weight_transform_backward(T* dw, const T* dU, const Conv1dShape& s) {
 // contiguous tap rows (vectorised). Every loop runs over a whole chunk (N columns) rather than one sample's nT
 // tiles, and no loop depends on the dilation.
 
-// tap[k * ldt + b * nT + j] = b * ld + base_j + k d for k < ntap, b < nb, j < nT (base_j = m d (j / d) + j % d):
-// where tap k of tile j of sample b sits in nb stacked rows of ld frames.
+// First (padded) frame of tile j: tiles are walked as (block q, residue r) = (j / d, j % d).
+int64_t tile_base(int64_t j, int m, int64_t d) { return m * d * (j / d) + j % d; }
+
+// tap[k * ldt + b * nT + j] = b * ld + tile_base(j) + k d for k < ntap, b < nb, j < nT: where tap k of tile j of
+// sample b sits in nb stacked rows of ld frames.
 void tap_offsets(int32_t* tap, int ntap, int m, const Geo& g, int64_t nb, int64_t ld, int64_t ldt) {
   if (nb * ld > INT32_MAX)
     throw Error("conv1d_winograd: a chunk of " + std::to_string(nb) + " samples x " + std::to_string(ld) +
                 " padded frames overflows the int32 offset table");
   for (int64_t j = 0; j < g.nT; ++j) {
-    const int64_t base = m * g.d * (j / g.d) + j % g.d;
+    const int64_t base = tile_base(j, m, g.d);
     for (int k = 0; k < ntap; ++k)
       for (int64_t b = 0; b < nb; ++b) tap[k * ldt + b * g.nT + j] = (int32_t)(b * ld + base + k * g.d);
   }
@@ -271,7 +274,7 @@ void output_transform(T* out, const T* Mx, const T* bias, const Conv1dShape& s, 
   const int64_t ldp = M * g.N;
   int32_t* src = fused_scratch<int32_t>(6, g.To);
   for (int64_t j = 0; j < g.nT; ++j) {
-    const int64_t base = M * g.d * (j / g.d) + j % g.d;
+    const int64_t base = tile_base(j, M, g.d);
     for (int r = 0; r < M; ++r)
       if (base + r * g.d < g.To) src[base + r * g.d] = (int32_t)(r * g.N + j);
   }
