@@ -5,6 +5,9 @@
 // Storage has a valid, aligned pointer). bytes_in_use / bytes_cached count class sizes, not requested sizes.
 #include "tensor/allocator.h"
 
+#include <sys/mman.h>
+
+#include <cstdint>
 #include <cstdlib>
 #include <mutex>
 #include <string>
@@ -51,6 +54,17 @@ void release_locked(Cache& c) {
 
 }  // namespace
 
+void* aligned_alloc_pages(size_t nbytes, size_t align) {
+  constexpr size_t kHuge = size_t(2) << 20;
+  const size_t a = nbytes < kHuge ? align : kHuge;
+  void* p = nullptr;
+  if (posix_memalign(&p, a, nbytes == 0 ? a : nbytes) != 0) return nullptr;
+  // Advice only (the kernel may run without transparent huge pages), and only for the whole 2 MB pages inside the
+  // block: a partly used huge page would count its unused rest in the resident set.
+  if (nbytes >= kHuge) madvise(p, nbytes / kHuge * kHuge, MADV_HUGEPAGE);
+  return p;
+}
+
 void* cached_alloc(size_t nbytes) {
   const size_t cls = size_class(nbytes);
   Cache& c = cache();
@@ -63,10 +77,10 @@ void* cached_alloc(size_t nbytes) {
     it->second.pop_back();
     c.stats.bytes_cached -= cls;
   } else {
-    p = std::aligned_alloc(kAlign, cls);
+    p = aligned_alloc_pages(cls, kAlign);
     if (!p) {  // out of memory: give the cache back to the OS and try once more
       release_locked(c);
-      p = std::aligned_alloc(kAlign, cls);
+      p = aligned_alloc_pages(cls, kAlign);
     }
     if (!p) throw Error("cached_alloc: out of memory allocating " + std::to_string(nbytes) + " bytes");
     ++c.stats.os_allocs;

@@ -4,7 +4,6 @@
 #include "tensor/gemm.h"
 
 #include <omp.h>
-#include <sys/mman.h>
 
 #include <algorithm>
 #include <atomic>
@@ -15,6 +14,7 @@
 #include <string>
 #include <tuple>
 
+#include "tensor/allocator.h"
 #include "tensor/gemm_kernel.h"
 #include "tensor/parallel.h"
 #include "tensor/tensor.h"
@@ -61,11 +61,11 @@ struct PackBuffer {
       std::free(ptr);
       ptr = nullptr;
       cap = 0;
+      // A few buffers per thread: whole huge pages (rounded up) rather than a small-page tail.
       const size_t huge = size_t(2) << 20;
       const size_t want = bytes >= huge ? (bytes + huge - 1) / huge * huge : (bytes + 4095) / 4096 * 4096;
-      ptr = std::aligned_alloc(bytes >= huge ? huge : 4096, want);
+      ptr = aligned_alloc_pages(want, 4096);
       if (!ptr) throw Error("gemm: cannot allocate " + std::to_string(want) + " bytes of packing buffer");
-      if (want >= huge) madvise(ptr, want, MADV_HUGEPAGE);
       cap = want;
     }
     return static_cast<T*>(ptr);

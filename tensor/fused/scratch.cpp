@@ -4,6 +4,7 @@
 #include <cstdlib>
 #include <string>
 
+#include "tensor/allocator.h"
 #include "tensor/tensor.h"
 
 namespace t2m::fused {
@@ -31,7 +32,7 @@ void* fused_scratch_bytes(int slot, size_t nbytes) {
   if (nbytes > s.cap[slot] || s.ptr[slot] == nullptr) {
     size_t want = nbytes < 64 ? 64 : (nbytes + 63) / 64 * 64;
     if (want < s.cap[slot] + s.cap[slot] / 2) want = (s.cap[slot] + s.cap[slot] / 2 + 63) / 64 * 64;
-    void* p = std::aligned_alloc(64, want);
+    void* p = aligned_alloc_pages(want, 64);
     if (p == nullptr) throw Error("fused_scratch: out of memory asking for " + std::to_string(want) + " bytes");
     std::free(s.ptr[slot]);
     s.ptr[slot] = p;
