@@ -39,54 +39,6 @@ Variable pad_zeros_time(const Variable& x, int64_t left, int64_t right) {
   });
 }
 
-// x (N, T) rows -> out (N, left + T): `left` copies of frame 0, then x; backward: frame 0 gets the sum of the
-// first left + 1 gradient columns, frame t > 0 gets column left + t.
-template <typename T>
-void pad_replicate_fwd(T* out, const T* x, int64_t N, int64_t T0, int64_t left) {
-  for (int64_t n = 0; n < N; ++n) {
-    T* o = out + n * (left + T0);
-    const T* xi = x + n * T0;
-    for (int64_t j = 0; j < left; ++j) o[j] = xi[0];
-    std::memcpy(o + left, xi, (size_t)T0 * sizeof(T));
-  }
-}
-template <typename T>
-void pad_replicate_bwd(T* dx, const T* g, int64_t N, int64_t T0, int64_t left) {
-  for (int64_t n = 0; n < N; ++n) {
-    const T* gi = g + n * (left + T0);
-    T* d = dx + n * T0;
-    T s = 0;
-    for (int64_t j = 0; j <= left; ++j) s += gi[j];
-    d[0] = s;
-    std::memcpy(d + 1, gi + left + 1, (size_t)(T0 - 1) * sizeof(T));
-  }
-}
-
-Variable pad_replicate_left(const Variable& x, int64_t left) {
-  const Tensor xc = x.data().contiguous();
-  const int64_t T0 = xc.size(-1), N = xc.numel() / T0;
-  Shape os = xc.shape();
-  os.back() = left + T0;
-  Tensor out = Tensor::empty(os, xc.dtype());
-  if (N == 0) {
-    // nothing to copy
-  } else if (xc.dtype() == DType::f32)
-    pad_replicate_fwd<float>(out.data<float>(), xc.data<float>(), N, T0, left);
-  else
-    pad_replicate_fwd<double>(out.data<double>(), xc.data<double>(), N, T0, left);
-  return record("conv1d_pad_replicate", out, {x}, [left, T0, N, xs = xc.shape()](const Tensor& grad,
-                                                                                const std::vector<bool>&) {
-    const Tensor g = grad.contiguous();
-    Tensor dx = Tensor::empty(xs, g.dtype());
-    if (N == 0) return std::vector<Tensor>{dx};
-    if (g.dtype() == DType::f32)
-      pad_replicate_bwd<float>(dx.data<float>(), g.data<float>(), N, T0, left);
-    else
-      pad_replicate_bwd<double>(dx.data<double>(), g.data<double>(), N, T0, left);
-    return std::vector<Tensor>{dx};
-  });
-}
-
 template <typename T>
 void conv_fwd(Tensor& out, const Tensor& x, const Tensor& w, const Tensor& b, const fused::Conv1dShape& s) {
   fused::conv1d_forward<T>(out.data<T>(), x.data<T>(), w.data<T>(), cptr<T>(b), s);
@@ -127,11 +79,11 @@ Variable conv1d(const Variable& x, const Variable& weight, const Variable& bias,
   const int64_t K = weight.size(2);
   if (causal) {
     const int64_t left = padding.left < 0 ? (K - 1) * dilation : padding.left;
-    if (left == (K - 1) * dilation) {
+    if (left > 0) {
       s.causal = true;  // the kernel's own replicate padding
+      s.causal_left = left;
       s.exact_causal = padding.exact;
-    } else if (left > 0 && x.size(2) >= 1)
-      xin = pad_replicate_left(x, left);
+    }
   } else if (padding.left == padding.right) {
     s.pad = padding.left;
   } else if (x.size(2) >= 1) {

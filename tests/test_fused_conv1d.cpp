@@ -16,7 +16,7 @@ namespace {
 // Direct definition: out[b,co,to] = bias[co] + sum_{ci,k} w[co,ci,k] * xpad[b,ci,to*stride + k*dil - padL], where
 // xpad is zero outside [0, T) for zero padding and x[.., 0] left of 0 for causal padding.
 Vec ref_conv1d(const Vec& x, const Vec& w, const Vec* bias, const Conv1dShape& s) {
-  const int64_t To = s.out_len(), padL = s.causal ? (s.K - 1) * s.dilation : s.pad;
+  const int64_t To = s.out_len(), padL = s.pad_left();  // causal: causal_left, or (K-1)*dil when it is -1
   Vec y(s.B * s.Cout * To, 0.0);
   for (int64_t b = 0; b < s.B; ++b)
     for (int64_t co = 0; co < s.Cout; ++co)
@@ -51,6 +51,11 @@ Conv1dShape shape(int64_t B, int64_t Cin, int64_t Cout, int64_t T, int64_t K, in
   s.dilation = dil;
   s.pad = pad;
   s.causal = causal;
+  return s;
+}
+
+Conv1dShape causal_left(Conv1dShape s, int64_t left) {
+  s.causal_left = left;
   return s;
 }
 
@@ -99,7 +104,11 @@ INSTANTIATE_TEST_SUITE_P(
                       shape(2, 3, 3, 7, 3, 3, 2, 2, false),   // stride 3, dilation 2, pad 2
                       shape(2, 3, 4, 7, 3, 1, 1, 0, true),    // causal k3
                       shape(1, 2, 3, 33, 3, 1, 9, 0, true),   // causal dilation 9 (pad longer than T/2)
-                      shape(2, 3, 2, 8, 4, 2, 1, 0, true),    // VBB downsampling: causal k4 stride 2
+                      shape(2, 3, 2, 8, 4, 2, 1, 0, true),    // causal k4 stride 2, 3 frames replicated
+                      causal_left(shape(2, 3, 2, 8, 4, 2, 1, 0, true), 2),  // VBB downsampling: k4 s2, 2 frames
+                      causal_left(shape(2, 3, 2, 9, 3, 1, 2, 0, true), 1),  // fewer frames than (K-1)*dil
+                      causal_left(shape(1, 2, 2, 6, 3, 2, 1, 0, true), 5),  // more frames than (K-1)*dil
+                      causal_left(shape(2, 2, 3, 5, 2, 2, 1, 0, true), 0),  // none: a plain valid conv
                       shape(3, 4, 5, 7, 1, 1, 1, 0, false),   // k1 (pointwise)
                       shape(1, 2, 2, 3, 3, 1, 2, 0, true)));  // T=3 shorter than the causal pad (4)
 
@@ -196,6 +205,8 @@ TEST(Conv1d, BadConfigurationsThrow) {
   EXPECT_THROW(shape(1, 1, 1, 8, 3, 1, 0, 0, false).out_len(), t2m::Error);  // dilation 0
   EXPECT_THROW(shape(1, 0, 1, 8, 3, 1, 1, 0, false).out_len(), t2m::Error);  // Cin 0
   EXPECT_THROW(shape(1, 1, 1, 8, 3, 1, 1, -1, false).out_len(), t2m::Error);
+  EXPECT_THROW(causal_left(shape(1, 1, 1, 8, 3, 1, 1, 0, true), -2).out_len(), t2m::Error);
+  EXPECT_THROW(causal_left(shape(1, 1, 1, 8, 3, 1, 1, 0, false), 2).out_len(), t2m::Error);  // not causal
   EXPECT_THROW(conv1d_forward<float>(p, p, nullptr, nullptr, shape(1, 1, 1, 8, 3, 1, 1, 0, false)), t2m::Error);
   EXPECT_THROW(conv1d_backward<float>(p, p, nullptr, nullptr, p, p, shape(1, 1, 1, 8, 3, 1, 1, 0, false)),
                t2m::Error);

@@ -27,6 +27,9 @@ int64_t Conv1dShape::out_len() const {
   check_dim(op, "pad", pad, 0);
   if (causal && pad != 0)
     throw Error("conv1d: causal padding is (K-1)*dilation on the left; pad must be 0, got " + std::to_string(pad));
+  if (causal_left < -1 || (!causal && causal_left != -1))
+    throw Error("conv1d: causal_left must be -1 or, for a causal conv, >= 0; got " + std::to_string(causal_left) +
+                (causal ? "" : " without causal"));
   const int64_t span = T + pad_left() + pad_right() - dilation * (K - 1) - 1;
   if (span < 0)
     throw Error("conv1d: kernel span " + std::to_string(dilation * (K - 1) + 1) + " exceeds padded length " +

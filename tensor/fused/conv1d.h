@@ -2,8 +2,9 @@
 //
 // inp (B, Cin, T), weight (Cout, Cin, K), bias (Cout) or null, out (B, Cout, To) with
 //   To = floor((T + padL + padR - dilation*(K-1) - 1) / stride) + 1.
-// Padding: causal == true pads (K-1)*dilation frames on the left by REPLICATING frame 0 (padL = (K-1)*dilation,
-// padR = 0, `pad` must be 0); otherwise `pad` zero frames on both sides (padL = padR = pad).
+// Padding: causal == true pads frames on the left by REPLICATING frame 0 (padL = (K-1)*dilation, or causal_left
+// when that is >= 0, e.g. (K-1)*dilation + 1 - stride for a strided causal conv; padR = 0; `pad` must be 0);
+// otherwise `pad` zero frames on both sides (padL = padR = pad).
 // Backward writes dinp (=) and accumulates dweight/dbias (+=); the replicate padding's gradient flows into frame 0.
 // The GEMMs work on chunks of nb samples at once (the column matrix is (Cin*K, nb*To), nb as large as keeps it
 // within 4 MB of float, at least 1, the whole batch for small shapes); dweight/dbias accumulate chunk by chunk.
@@ -12,7 +13,8 @@
 // Algorithm: k = 3, stride 1 convolutions whose shape pays for it run Winograd F(m, 3) instead
 // (conv1d_winograd.h: 1/3 to 1/2 fewer multiply-adds); Conv1dShape::algo forces one path (tests, benchmarks).
 // Deterministic for a fixed thread count (every reduction has a fixed order).
-// Errors: t2m::Error for sizes < 1 (B may be 0), stride/dilation < 1, pad < 0, causal with pad != 0, To < 1,
+// Errors: t2m::Error for sizes < 1 (B may be 0), stride/dilation < 1, pad < 0, causal with pad != 0, causal_left
+// below -1 or set without causal, To < 1,
 // null required pointers.
 #pragma once
 #include <cstdint>
@@ -25,11 +27,12 @@ struct Conv1dShape {
   int64_t B = 1, Cin = 1, Cout = 1, T = 1, K = 1;
   int64_t stride = 1, dilation = 1, pad = 0;
   bool causal = false;
+  int64_t causal_left = -1;  // causal only: frames replicated on the left; -1: (K-1)*dilation
   // causal only: true keeps every output independent of later frames even in rounding (Winograd F(2, 3) at most);
   // false also allows F(4, 3), whose outputs carry ~1e-7 relative rounding from up to 3 later frames of their tile.
   bool exact_causal = true;
   Conv1dAlgo algo = Conv1dAlgo::automatic;  // automatic: Winograd where conv1d_winograd_tile(s) != 0
-  int64_t pad_left() const { return causal ? (K - 1) * dilation : pad; }
+  int64_t pad_left() const { return causal ? (causal_left >= 0 ? causal_left : (K - 1) * dilation) : pad; }
   int64_t pad_right() const { return causal ? 0 : pad; }
   int64_t out_len() const;  // To; throws Error when the configuration is invalid or To < 1
 };
