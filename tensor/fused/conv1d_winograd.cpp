@@ -44,6 +44,8 @@ struct Wino<4> {
       {1, 1, 1, 1, 1, 0}, {0, 1, -1, 2, -2, 0}, {0, 1, 1, 4, 4, 0}, {0, 1, -1, 8, -8, 1}};
 };
 
+constexpr int64_t kPairBlock = 256;  // (co, ci) pairs per block of the weight transforms
+
 int64_t tiles_per_sample(int64_t To, int64_t d, int m) {
   const int64_t span = m * d, rem = To % span;
   return d * (To / span) + (rem < d ? rem : d);
@@ -81,12 +83,24 @@ struct Geo {
 template <typename T, int M>
 void weight_transform(T* U, const T* w, const Conv1dShape& s) {
   using W = Wino<M>;
-  const int64_t CC = s.Cout * s.Cin;
+  const int64_t CC = s.Cout * s.Cin, nblk = (CC + kPairBlock - 1) / kPairBlock;
   const int nt = fused_threads(W::A * CC);
+  // Blocks of kPairBlock (co, ci) pairs: the three taps are split out of w's stride-3 rows first, so that the
+  // products below run as contiguous vector loops (the same expression per element as one pair at a time).
 #pragma omp parallel for num_threads(nt) schedule(static) if (nt > 1)
-  for (int64_t c = 0; c < CC; ++c) {
-    const T g0 = w[3 * c], g1 = w[3 * c + 1], g2 = w[3 * c + 2];
-    for (int i = 0; i < W::A; ++i) U[i * CC + c] = (T)W::G[i][0] * g0 + (T)W::G[i][1] * g1 + (T)W::G[i][2] * g2;
+  for (int64_t q = 0; q < nblk; ++q) {
+    const int64_t c0 = q * kPairBlock, n = CC - c0 < kPairBlock ? CC - c0 : kPairBlock;
+    T g0[kPairBlock], g1[kPairBlock], g2[kPairBlock];
+    for (int64_t j = 0; j < n; ++j) {
+      g0[j] = w[3 * (c0 + j)];
+      g1[j] = w[3 * (c0 + j) + 1];
+      g2[j] = w[3 * (c0 + j) + 2];
+    }
+    for (int i = 0; i < W::A; ++i) {
+      T* u = U + i * CC + c0;
+      const T a = (T)W::G[i][0], b = (T)W::G[i][1], c = (T)W::G[i][2];
+      for (int64_t j = 0; j < n; ++j) u[j] = a * g0[j] + b * g1[j] + c * g2[j];
+    }
   }
 }
 
@@ -94,15 +108,23 @@ void weight_transform(T* U, const T* w, const Conv1dShape& s) {
 template <typename T, int M>
 void weight_transform_backward(T* dw, const T* dU, const Conv1dShape& s) {
   using W = Wino<M>;
-  const int64_t CC = s.Cout * s.Cin;
+  const int64_t CC = s.Cout * s.Cin, nblk = (CC + kPairBlock - 1) / kPairBlock;
   const int nt = fused_threads(W::A * CC);
 #pragma omp parallel for num_threads(nt) schedule(static) if (nt > 1)
-  for (int64_t c = 0; c < CC; ++c)
-    for (int k = 0; k < 3; ++k) {
-      T acc = 0;
-      for (int i = 0; i < W::A; ++i) acc += (T)W::G[i][k] * dU[i * CC + c];
-      dw[3 * c + k] += acc;
+  for (int64_t q = 0; q < nblk; ++q) {
+    const int64_t c0 = q * kPairBlock, n = CC - c0 < kPairBlock ? CC - c0 : kPairBlock;
+    T acc[3][kPairBlock];
+    for (int k = 0; k < 3; ++k) {  // acc over i in order, as one pair at a time would sum it
+      for (int64_t j = 0; j < n; ++j) acc[k][j] = 0;
+      for (int i = 0; i < W::A; ++i) {
+        const T gk = (T)W::G[i][k];
+        const T* du = dU + i * CC + c0;
+        for (int64_t j = 0; j < n; ++j) acc[k][j] += gk * du[j];
+      }
     }
+    for (int64_t j = 0; j < n; ++j)
+      for (int k = 0; k < 3; ++k) dw[3 * (c0 + j) + k] += acc[k][j];
+  }
 }
 
 // The tile transforms work on blocks of kChanBlock channels, in two steps each: a copy of the block's frame rows
