@@ -2,12 +2,22 @@
 #include "autograd/ops_unary.h"
 
 #include "tensor/ops.h"
+#include "tensor/parallel.h"
 
 namespace t2m::ag {
 
 namespace {
 using Grads = std::vector<Tensor>;
 using Need = std::vector<bool>;
+
+// da[i] = g[i] * (a[i] > 0 ? 1 : 0): the product of g and the step mask in one pass (the same bits as multiplying
+// by a mask tensor, -0 and NaN included).
+template <typename T>
+void relu_backward(T* da, const T* g, const T* a, int64_t n) {
+  const int nt = n < kParallelGrain ? 1 : get_num_threads();
+#pragma omp parallel for schedule(static) num_threads(nt)
+  for (int64_t i = 0; i < n; ++i) da[i] = g[i] * (a[i] > (T)0 ? (T)1 : (T)0);
+}
 }  // namespace
 
 // da = -g
@@ -61,8 +71,18 @@ Variable sigmoid(const Variable& a) {
 // da = g * (a > 0)
 Variable relu(const Variable& a) {
   Tensor ta = a.data();
-  return record("relu", t2m::relu(ta), {a},
-                [ta](const Tensor& g, const Need&) { return Grads{t2m::mul(g, t2m::gt(ta, 0.0))}; });
+  return record("relu", t2m::relu(ta), {a}, [ta](const Tensor& g, const Need&) {
+    const DType dt = ta.dtype();
+    if ((dt != DType::f32 && dt != DType::f64) || g.dtype() != dt || g.shape() != ta.shape())
+      return Grads{t2m::mul(g, t2m::gt(ta, 0.0))};  // the general (broadcasting, mixed dtype) path
+    const Tensor gc = g.contiguous(), ac = ta.contiguous();
+    Tensor da = Tensor::empty(ac.shape(), dt);
+    if (dt == DType::f32)
+      relu_backward<float>(da.data<float>(), gc.data<float>(), ac.data<float>(), ac.numel());
+    else
+      relu_backward<double>(da.data<double>(), gc.data<double>(), ac.data<double>(), ac.numel());
+    return Grads{da};
+  });
 }
 
 // da = g * sign(a)
