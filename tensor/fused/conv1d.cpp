@@ -176,15 +176,20 @@ void conv1d_backward(T* dinp, T* dweight, T* dbias, const T* dout, const T* inp,
 #pragma omp parallel for num_threads(nt) schedule(static) if (nt > 1)
     for (int64_t co = 0; co < s.Cout; ++co) {
       T* dst = dtmp + co * N;
-      T sum = 0;
+      T part[16] = {};  // 16 partial sums of the bias gradient: vectorisable, same order for any thread count
       for (int64_t b = 0; b < nb; ++b) {
         const T* src = dout + ((b0 + b) * s.Cout + co) * To;
-        for (int64_t to = 0; to < To; ++to) {
-          dst[b * To + to] = src[to];
-          sum += src[to];
-        }
+        for (int64_t to = 0; to < To; ++to) dst[b * To + to] = src[to];
+        int64_t to = 0;
+        for (; to + 16 <= To; to += 16)
+          for (int k = 0; k < 16; ++k) part[k] += src[to + k];
+        for (; to < To; ++to) part[to % 16] += src[to];
       }
-      if (dbias) dbias[co] += sum;
+      if (dbias) {
+        T sum = 0;
+        for (T v : part) sum += v;
+        dbias[co] += sum;
+      }
     }
     if (dweight) {
       im2col(col, inp, s, To, b0, nb);
