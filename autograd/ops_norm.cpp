@@ -156,14 +156,6 @@ void relu_inplace(T* y, int64_t n) {
   for (int64_t i = 0; i < n; ++i) y[i] = y[i] > (T)0 ? y[i] : (T)0;
 }
 
-// gm = g where y > 0, else 0.
-template <typename T>
-void relu_mask(T* gm, const T* g, const T* y, int64_t n) {
-  const int nt = n < kParallelGrain ? 1 : get_num_threads();
-#pragma omp parallel for schedule(static) num_threads(nt)
-  for (int64_t i = 0; i < n; ++i) gm[i] = y[i] > (T)0 ? g[i] : (T)0;
-}
-
 // Shared by group_norm and group_norm_relu. x (B, C, T) -> out (B, C, T); mean/rstd (B, G) saved, and with
 // relu the (post-ReLU) output as the gradient mask.
 Variable group_norm_op(const char* op, const Variable& x, int64_t groups, const Variable& weight,
@@ -195,29 +187,21 @@ Variable group_norm_op(const char* op, const Variable& x, int64_t groups, const 
   const Tensor mask = relu ? out : Tensor();
   return record(op, out, vars,
                 [in, xc, mean, rstd, mask, B, C, Tl, G, n](const Tensor& grad, const std::vector<bool>& need) {
-                  Tensor g = grad.contiguous();
+                  const Tensor g = grad.contiguous();
                   Tensor dw, db;
                   param_grads(in, need, dw, db);
                   Tensor dx = Tensor::empty(xc.shape(), xc.dtype());  // the kernel always writes dinp
                   if (n == 0) return pack_grads(in, dx, dw, db);
                   if (g.dtype() == DType::f32) {
-                    if (mask.defined()) {
-                      Tensor gm = Tensor::empty(g.shape(), g.dtype());
-                      relu_mask<float>(gm.data<float>(), g.data<float>(), mask.data<float>(), n);
-                      g = gm;
-                    }
                     fused::group_norm_backward<float>(mptr<float>(dx), mptr<float>(dw), mptr<float>(db),
                                                       g.data<float>(), xc.data<float>(), cptr<float>(in.w),
-                                                      mean.data<float>(), rstd.data<float>(), B, C, Tl, G);
+                                                      mean.data<float>(), rstd.data<float>(), B, C, Tl, G,
+                                                      cptr<float>(mask));
                   } else {
-                    if (mask.defined()) {
-                      Tensor gm = Tensor::empty(g.shape(), g.dtype());
-                      relu_mask<double>(gm.data<double>(), g.data<double>(), mask.data<double>(), n);
-                      g = gm;
-                    }
                     fused::group_norm_backward<double>(mptr<double>(dx), mptr<double>(dw), mptr<double>(db),
                                                        g.data<double>(), xc.data<double>(), cptr<double>(in.w),
-                                                       mean.data<double>(), rstd.data<double>(), B, C, Tl, G);
+                                                       mean.data<double>(), rstd.data<double>(), B, C, Tl, G,
+                                                       cptr<double>(mask));
                   }
                   return pack_grads(in, dx, dw, db);
                 });

@@ -70,7 +70,8 @@ void group_norm_forward(T* out, T* mean, T* rstd, const T* inp, const T* weight,
 
 template <typename T>
 void group_norm_backward(T* dinp, T* dweight, T* dbias, const T* dout, const T* inp, const T* weight,
-                         const T* mean, const T* rstd, int64_t B, int64_t C, int64_t Tlen, int64_t G) {
+                         const T* mean, const T* rstd, int64_t B, int64_t C, int64_t Tlen, int64_t G,
+                         const T* relu_out) {
   const char* op = "group_norm_backward";
   check_groups(op, B, C, Tlen, G);
   if (B == 0) return;
@@ -94,6 +95,7 @@ void group_norm_backward(T* dinp, T* dweight, T* dbias, const T* dout, const T* 
       const int64_t g = bg % G;
       const T* x = inp + bg * n;
       const T* dy = dout + bg * n;
+      const T* ry = relu_out ? relu_out + bg * n : nullptr;
       T* dx = dinp + bg * n;
       const T m = mean[bg], r = rstd[bg];
       T sum_dn = 0, sum_dn_n = 0;
@@ -103,11 +105,21 @@ void group_norm_backward(T* dinp, T* dweight, T* dbias, const T* dout, const T* 
         const T* xc = x + cc * Tlen;
         const T* dyc = dy + cc * Tlen;
         T s_dy = 0, s_dy_n = 0;
+        if (ry) {
+          const T* rc = ry + cc * Tlen;
 #pragma omp simd reduction(+ : s_dy, s_dy_n)
-        for (int64_t t = 0; t < Tlen; ++t) {
-          const T nn = (xc[t] - m) * r;
-          s_dy += dyc[t];
-          s_dy_n += dyc[t] * nn;
+          for (int64_t t = 0; t < Tlen; ++t) {
+            const T nn = (xc[t] - m) * r, d = rc[t] > (T)0 ? dyc[t] : (T)0;
+            s_dy += d;
+            s_dy_n += d * nn;
+          }
+        } else {
+#pragma omp simd reduction(+ : s_dy, s_dy_n)
+          for (int64_t t = 0; t < Tlen; ++t) {
+            const T nn = (xc[t] - m) * r;
+            s_dy += dyc[t];
+            s_dy_n += dyc[t] * nn;
+          }
         }
         sum_dn += w * s_dy;
         sum_dn_n += w * s_dy_n;
@@ -123,9 +135,17 @@ void group_norm_backward(T* dinp, T* dweight, T* dbias, const T* dout, const T* 
         const T* xc = x + cc * Tlen;
         const T* dyc = dy + cc * Tlen;
         T* dxc = dx + cc * Tlen;
-        for (int64_t t = 0; t < Tlen; ++t) {
-          const T nn = (xc[t] - m) * r;
-          dxc[t] = r * (w * dyc[t] - mdn - nn * mdnn);
+        if (ry) {
+          const T* rc = ry + cc * Tlen;
+          for (int64_t t = 0; t < Tlen; ++t) {
+            const T nn = (xc[t] - m) * r, d = rc[t] > (T)0 ? dyc[t] : (T)0;
+            dxc[t] = r * (w * d - mdn - nn * mdnn);
+          }
+        } else {
+          for (int64_t t = 0; t < Tlen; ++t) {
+            const T nn = (xc[t] - m) * r;
+            dxc[t] = r * (w * dyc[t] - mdn - nn * mdnn);
+          }
         }
       }
     }
@@ -146,8 +166,10 @@ template void group_norm_forward<float>(float*, float*, float*, const float*, co
 template void group_norm_forward<double>(double*, double*, double*, const double*, const double*, const double*,
                                          int64_t, int64_t, int64_t, int64_t, double);
 template void group_norm_backward<float>(float*, float*, float*, const float*, const float*, const float*,
-                                         const float*, const float*, int64_t, int64_t, int64_t, int64_t);
+                                         const float*, const float*, int64_t, int64_t, int64_t, int64_t,
+                                         const float*);
 template void group_norm_backward<double>(double*, double*, double*, const double*, const double*, const double*,
-                                          const double*, const double*, int64_t, int64_t, int64_t, int64_t);
+                                          const double*, const double*, int64_t, int64_t, int64_t, int64_t,
+                                          const double*);
 
 }  // namespace t2m::fused
