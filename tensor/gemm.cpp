@@ -297,7 +297,12 @@ void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
   const int64_t mr = uk.mr, nr = uk.nr, MC = uk.mc, KC = uk.kc, NC = uk.nc;
   const int64_t m_tiles = ceil_div(g.M, mr), n_tiles = ceil_div(g.N, nr);
   nt = int(std::max<int64_t>(1, std::min<int64_t>(nt, std::max(m_tiles, n_tiles))));
-  const bool split_m = nt == 1 || m_tiles >= 4 * nt || m_tiles >= n_tiles;
+  // Up to 1024 rows, with enough B panels for every thread, split by columns: each thread packs its own B panels
+  // and the whole A block, with no barrier. On the AMD host this ran the fm-paper shapes (512-768 rows) 6-12 %
+  // faster on 2 threads than the shared-B row split (`t2m bench --threads 2 --shapes 512x2048x512,...`), and
+  // 4096x512x512 5 % slower, hence the row limit.
+  const bool split_n = nt > 1 && g.M <= 1024 && n_tiles >= 4 * nt;
+  const bool split_m = !split_n && (nt == 1 || m_tiles >= 4 * nt || m_tiles >= n_tiles);
   T* shared_bp = split_m ? tls_pack_b.get<T>(KC * round_up(std::min(NC, g.N), nr)) : nullptr;
   std::unique_ptr<StealRange[]> ranges(split_m && nt > 1 ? new StealRange[nt] : nullptr);
 #pragma omp parallel num_threads(nt) if (nt > 1)
