@@ -2,13 +2,12 @@
 // large tensors) and inverted dropout (one fused Philox pass; a byte mask saved for the backward).
 #include "autograd/ops_activation.h"
 
-#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <memory>
 #include <string>
-#include <type_traits>
 
+#include "autograd/bit_mask.h"
 #include "autograd/node.h"
 #include "tensor/fused/gelu_tanh.h"
 #include "tensor/parallel.h"
@@ -26,9 +25,6 @@ void check_float(const char* op, const Variable& x) {
 
 int threads_for(int64_t n) { return n < kParallelGrain ? 1 : get_num_threads(); }
 
-// The unsigned integer of T's width (bit masks in the dropout kernels).
-template <typename T>
-using Bits = std::conditional_t<sizeof(T) == 4, uint32_t, uint64_t>;
 
 // y = x * s, s = 1 / (1 + exp(-x))
 template <typename T>
@@ -73,9 +69,9 @@ void dropout_forward(T* y, uint8_t* keep, const T* x, int64_t n, uint64_t seed, 
     } else {
       // Branch-free (vectorises): the dropped elements' bits are masked to +0, as `k ? x * scale : 0` gives.
       for (int64_t j = j0; j < j1; ++j) {
-        const Bits<T> k = w[j - j0] < thresh;
-        keep[j] = (uint8_t)k;
-        y[j] = std::bit_cast<T>(std::bit_cast<Bits<T>>(x[j] * scale) & ((Bits<T>)0 - k));
+        const bool k = w[j - j0] < thresh;
+        keep[j] = k;
+        y[j] = keep_or_zero(x[j] * scale, k);
       }
     }
   }
@@ -86,7 +82,7 @@ template <typename T>
 void dropout_backward(T* dx, const T* g, const uint8_t* keep, int64_t n, T scale) {
 #pragma omp parallel for schedule(static) num_threads(threads_for(n))
   for (int64_t j = 0; j < n; ++j)  // keep[j] is 0 or 1: masks the dropped elements' bits to +0, branch-free
-    dx[j] = std::bit_cast<T>(std::bit_cast<Bits<T>>(g[j] * scale) & ((Bits<T>)0 - (Bits<T>)keep[j]));
+    dx[j] = keep_or_zero(g[j] * scale, keep[j] != 0);
 }
 
 }  // namespace

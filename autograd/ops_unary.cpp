@@ -1,10 +1,7 @@
 // ops_unary.cpp — forward/backward pairs of the unary ops. a, out, g (output gradient) and da share one shape.
 #include "autograd/ops_unary.h"
 
-#include <bit>
-#include <cstdint>
-#include <type_traits>
-
+#include "autograd/bit_mask.h"
 #include "tensor/ops.h"
 #include "tensor/parallel.h"
 
@@ -19,11 +16,8 @@ using Need = std::vector<bool>;
 template <typename T>
 void relu_backward(T* da, const T* g, const T* a, int64_t n) {
   const int nt = n < kParallelGrain ? 1 : get_num_threads();
-  using U = std::conditional_t<sizeof(T) == 4, uint32_t, uint64_t>;
-  const U one = std::bit_cast<U>((T)1);
-  // The step as the bits of 1 or +0 (a select GCC would turn into a branch around the product; this vectorises).
 #pragma omp parallel for schedule(static) num_threads(nt)
-  for (int64_t i = 0; i < n; ++i) da[i] = g[i] * std::bit_cast<T>(one & ((U)0 - (U)(a[i] > (T)0)));
+  for (int64_t i = 0; i < n; ++i) da[i] = g[i] * keep_or_zero((T)1, a[i] > (T)0);
 }
 }  // namespace
 

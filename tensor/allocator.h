@@ -15,10 +15,10 @@ struct AllocatorStats {
   uint64_t os_allocs = 0;      // of which went to the OS (cache misses)
 };
 
-// Aligned block straight from the C library (std::free releases it). Blocks of 2 MB and more are 2 MB aligned and
-// the whole 2 MB pages inside them are marked for transparent huge pages (madvise): under a VM's nested paging every TLB miss
-// of a 4 KB page walks two page tables, and the streaming kernels (norms, transforms, optimizer) touch tens of MB
-// per step. `align` (a power of two, at least 64) applies below 2 MB. Returns nullptr when out of memory.
+// Aligned block straight from the C library (std::free releases it). Blocks of 2 MB and more are 2 MB aligned
+// and the whole 2 MB pages inside them are marked for transparent huge pages (madvise): under a VM's nested
+// paging every TLB miss of a 4 KB page walks two page tables, and the streaming kernels (norms, transforms,
+// optimizer) touch tens of MB per step. `align` (a power of two, at least 64) applies below 2 MB. Returns nullptr when out of memory.
 void* aligned_alloc_pages(size_t nbytes, size_t align);
 
 void* cached_alloc(size_t nbytes);

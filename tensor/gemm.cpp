@@ -289,9 +289,9 @@ struct alignas(64) StealRange {
 
 // Threads split C by rows (each packs its own A blocks; the B block is packed once, cooperatively, and shared;
 // once a thread's rows are done it steals B panels of the others' rows, packing their A block itself) or, when M
-// is at most 1024 rows or too short for a row split, by columns (each packs its own B panels and the whole A block). Every C tile is computed
-// by one kernel call per K block from the same packed data whichever thread takes it, so stealing does not
-// change a bit of the result.
+// is at most 1024 rows or too short for a row split, by columns (each packs its own B panels and the whole A
+// block). Every C tile is computed by one kernel call per K block from the same packed data whichever thread
+// takes it, so stealing does not change a bit of the result.
 template <typename T>
 void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
   const int64_t mr = uk.mr, nr = uk.nr, MC = uk.mc, KC = uk.kc, NC = uk.nc;
