@@ -180,16 +180,9 @@ void conv1d_backward(T* dinp, T* dweight, T* dbias, const T* dout, const T* inp,
       for (int64_t b = 0; b < nb; ++b) {
         const T* src = dout + ((b0 + b) * s.Cout + co) * To;
         for (int64_t to = 0; to < To; ++to) dst[b * To + to] = src[to];
-        int64_t to = 0;
-        for (; to + 16 <= To; to += 16)
-          for (int k = 0; k < 16; ++k) part[k] += src[to + k];
-        for (; to < To; ++to) part[to % 16] += src[to];
+        add_to_partials16(part, src, To);
       }
-      if (dbias) {
-        T sum = 0;
-        for (T v : part) sum += v;
-        dbias[co] += sum;
-      }
+      if (dbias) dbias[co] += sum_partials16(part);
     }
     if (dweight) {
       im2col(col, inp, s, To, b0, nb);

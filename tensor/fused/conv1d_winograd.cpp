@@ -360,17 +360,9 @@ void backward_m(T* dinp, T* dweight, T* dbias, const T* dout, const T* inp, cons
     const int nt = fused_threads(s.B * s.Cout * g.To);
 #pragma omp parallel for num_threads(nt) schedule(static) if (nt > 1)
     for (int64_t co = 0; co < s.Cout; ++co) {
-      T part[16] = {};  // 16 partial sums: vectorisable, same order for any thread count
-      for (int64_t b = 0; b < s.B; ++b) {
-        const T* dy = dout + (b * s.Cout + co) * g.To;
-        int64_t t = 0;
-        for (; t + 16 <= g.To; t += 16)
-          for (int k = 0; k < 16; ++k) part[k] += dy[t + k];
-        for (; t < g.To; ++t) part[t % 16] += dy[t];
-      }
-      T sum = 0;
-      for (T v : part) sum += v;
-      dbias[co] += sum;
+      T part[16] = {};  // same order for any thread count
+      for (int64_t b = 0; b < s.B; ++b) add_to_partials16(part, dout + (b * s.Cout + co) * g.To, g.To);
+      dbias[co] += sum_partials16(part);
     }
   }
   if (!dweight && !dinp) return;
