@@ -1,13 +1,15 @@
 // test_fused_attention_small.cpp — the two implementations of tensor/fused/attention.h agree: the per-head loop
 // path for small heads (attention_small.h, the default for the fm generator's shapes) and the gemm_batched path,
 // forced in turn with attention_force_path, on fm-like shapes (self 8x8 and 16x16, cross 8x24, text 24x24), with
-// key masks, causal masks, fully masked rows and requested-gradient subsets; the small path is bitwise identical
-// at 1 and 2 threads; path selection and bad path names.
+// key masks, causal masks, fully masked rows and requested-gradient subsets, at head dims served by the
+// register-blocked loops (32, 64, 96, 128; both the AVX-512 and the baseline build) and by the generic ones; the
+// small path is bitwise identical at 1 and 2 threads; path selection and bad path names.
 #include <gtest/gtest.h>
 
 #include <cmath>
 
 #include "tensor/fused/attention.h"
+#include "tensor/fused/attention_small.h"
 #include "tensor/parallel.h"
 #include "tensor/tensor.h"
 #include "test_fused_util.h"
@@ -43,7 +45,7 @@ AttnRun run(const char* path, const AttentionShape& s, const Vec& q, const Vec& 
   return AttnRun{d(out), d(att), d(dq), d(dk), d(dv)};
 }
 
-struct Case {
+struct Case {  // masked needs B >= 2 (batch 0 hides every key, batch 1 two of them)
   int64_t B, H, Tq, Tk, d;
   bool causal, masked;
 };
@@ -87,6 +89,22 @@ TEST_P(AttentionPaths, SmallAndGemmPathsAgree) {
   for (double x : only_k.dq) ASSERT_EQ(x, 7.0);
   const AttnRun only_v = run<double>("small", s, q, k, v, g, mp, false, false, true);
   expect_close(only_v.dv, a.dv, 0, 0, "dv alone");
+  const AttnRun only_q = run<double>("small", s, q, k, v, g, mp, true, false, false);
+  expect_close(only_q.dq, a.dq, 0, 0, "dq alone");
+  // the baseline (AVX2) build of the same loops: other vector widths, so other padded key counts
+  attention_small_force_baseline(true);
+  const AttnRun base = run<double>("small", s, q, k, v, g, mp);
+  const AttnRun base_f = run<float>("small", s, q, k, v, g, mp);
+  attention_small_force_baseline(false);
+  expect_close(base.out, b.out, 1e-13, 1e-12, "baseline out");
+  expect_close(base.att, b.att, 1e-14, 1e-12, "baseline att");
+  expect_close(base.dq, b.dq, 1e-13, 1e-12, "baseline dq");
+  expect_close(base.dk, b.dk, 1e-13, 1e-12, "baseline dk");
+  expect_close(base.dv, b.dv, 1e-13, 1e-12, "baseline dv");
+  expect_close(base_f.out, b.out, 1e-5, 1e-4, "baseline float out");
+  expect_close(base_f.dq, b.dq, 1e-5, 1e-4, "baseline float dq");
+  expect_close(base_f.dk, b.dk, 1e-5, 1e-4, "baseline float dk");
+  expect_close(base_f.dv, b.dv, 1e-5, 1e-4, "baseline float dv");
 }
 
 INSTANTIATE_TEST_SUITE_P(FmShapes, AttentionPaths,
@@ -95,7 +113,14 @@ INSTANTIATE_TEST_SUITE_P(FmShapes, AttentionPaths,
                                            Case{2, 3, 8, 24, 16, false, true},    // cross to 24 text tokens
                                            Case{2, 2, 24, 24, 12, false, true},   // text adapter
                                            Case{2, 2, 9, 9, 5, true, true},       // causal, odd sizes
-                                           Case{1, 1, 1, 70, 3, false, false}));  // one query, many keys
+                                           Case{1, 1, 1, 70, 3, false, false},    // one query, many keys
+                                           // head dims of the register-blocked loops
+                                           Case{2, 2, 16, 16, 64, false, false},  // fm self-attention
+                                           Case{2, 3, 8, 24, 32, false, true},    // fm cross-attention
+                                           Case{2, 2, 9, 9, 64, true, true},      // causal, odd sizes
+                                           Case{2, 2, 5, 50, 96, false, true},    // 4 float vectors of keys
+                                           Case{1, 1, 3, 70, 128, false, false},  // too many keys: generic loops
+                                           Case{2, 1, 24, 24, 128, false, true}));  // text adapter width
 
 TEST(AttentionPaths, SmallPathIsBitwiseEqualAtOneAndTwoThreads) {
   const int saved = t2m::get_num_threads();

@@ -3,19 +3,25 @@
 #pragma GCC optimize("no-trapping-math")
 #include "tensor/fused/attention_small.h"
 
+#include <atomic>
+
 #include "tensor/fused/attention_small_kernels.h"
 
 namespace t2m::fused {
 
 namespace {
 
+std::atomic<bool> g_force_baseline{false};
+
 bool have_avx512() {
   static const bool yes = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
                           __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl");
-  return yes;
+  return yes && !g_force_baseline.load(std::memory_order_relaxed);
 }
 
 }  // namespace
+
+void attention_small_force_baseline(bool on) { g_force_baseline.store(on); }
 
 bool attention_small_eligible(const AttentionShape& s) { return s.Tq * s.Tk <= kSmallAttentionTile && s.d <= 256; }
 

@@ -25,6 +25,10 @@ template <typename T>
 void attention_small_backward(T* dq, T* dk, T* dv, const T* dout, const T* att, const T* q, const T* k, const T* v,
                               const AttentionShape& s);
 
+// Tests: run the baseline (AVX2) build of the loops even on a CPU with AVX-512 (true), or choose by the CPU again
+// (false, the default).
+void attention_small_force_baseline(bool on);
+
 // The same loops compiled with AVX-512 (attention_small_avx512.cpp); call only where the CPU supports it.
 template <typename T>
 void attention_small_forward_avx512(T* out, T* att, const T* q, const T* k, const T* v, const T* key_mask,
