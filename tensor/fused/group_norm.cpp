@@ -109,7 +109,8 @@ void group_norm_backward(T* dinp, T* dweight, T* dbias, const T* dout, const T* 
           const T* rc = ry + cc * Tlen;
 #pragma omp simd reduction(+ : s_dy, s_dy_n)
           for (int64_t t = 0; t < Tlen; ++t) {
-            const T nn = (xc[t] - m) * r, d = rc[t] > (T)0 ? dyc[t] : (T)0;
+            const T g = dyc[t];  // read unconditionally: a blend, not a masked load (slow on AMD)
+            const T nn = (xc[t] - m) * r, d = rc[t] > (T)0 ? g : (T)0;
             s_dy += d;
             s_dy_n += d * nn;
           }
@@ -138,7 +139,8 @@ void group_norm_backward(T* dinp, T* dweight, T* dbias, const T* dout, const T* 
         if (ry) {
           const T* rc = ry + cc * Tlen;
           for (int64_t t = 0; t < Tlen; ++t) {
-            const T nn = (xc[t] - m) * r, d = rc[t] > (T)0 ? dyc[t] : (T)0;
+            const T g = dyc[t];
+            const T nn = (xc[t] - m) * r, d = rc[t] > (T)0 ? g : (T)0;
             dxc[t] = r * (w * d - mdn - nn * mdnn);
           }
         } else {
