@@ -28,16 +28,28 @@ void linear_bwd(T* dx, T* dw, T* db, const T* g, const T* x, const T* w, int64_t
   if (dx != nullptr) gemm(false, false, N, in, out, (T)1, g, out, w, in, (T)0, dx, in);
   if (dw != nullptr) gemm(true, false, out, in, N, (T)1, g, out, x, in, (T)0, dw, in);
   if (db != nullptr) {
-    // Columns split across threads; each column summed over rows in order (same result for any thread count).
+    // Columns split across threads; each column summed over rows in order (same result for any thread count), a
+    // block of kCols columns at a time in registers (summing into db row after row was bound by its stores).
+    constexpr int64_t kCols = 64;
     const int nt = N * out < kParallelGrain || out < 64 ? 1 : get_num_threads();
 #pragma omp parallel num_threads(nt)
     {
       const int tid = omp_get_thread_num(), nth = omp_get_num_threads();
       const int64_t j0 = out * tid / nth, j1 = out * (tid + 1) / nth;
-      for (int64_t j = j0; j < j1; ++j) db[j] = 0;
-      for (int64_t n = 0; n < N; ++n) {
+      int64_t j = j0;
+      for (; j + kCols <= j1; j += kCols) {
+        T acc[kCols] = {};
+        for (int64_t n = 0; n < N; ++n) {
+          const T* gr = g + n * out + j;
+#pragma omp simd
+          for (int64_t c = 0; c < kCols; ++c) acc[c] += gr[c];
+        }
+        for (int64_t c = 0; c < kCols; ++c) db[j + c] = acc[c];
+      }
+      for (int64_t c = j; c < j1; ++c) db[c] = 0;
+      for (int64_t n = 0; n < N && j < j1; ++n) {
         const T* gr = g + n * out;
-        for (int64_t j = j0; j < j1; ++j) db[j] += gr[j];
+        for (int64_t c = j; c < j1; ++c) db[c] += gr[c];
       }
     }
   }
