@@ -81,19 +81,30 @@ void layer_norm_backward(T* dinp, T* dweight, T* dbias, const T* dout, const T* 
       const T* dy = dout + i * C;
       T* dx = dinp + i * C;
       const T m = mean[i], r = rstd[i];
+      // The weight test is outside the loops: with it inside, GCC vectorised only the affine version of the sums
+      // (the plain LayerNorm of adaLN ran a scalar reduction).
       T sum_dn = 0, sum_dn_n = 0;
+      if (weight) {
 #pragma omp simd reduction(+ : sum_dn, sum_dn_n)
-      for (int64_t c = 0; c < C; ++c) {
-        const T n = (x[c] - m) * r;
-        const T dn = weight ? dy[c] * weight[c] : dy[c];
-        sum_dn += dn;
-        sum_dn_n += dn * n;
+        for (int64_t c = 0; c < C; ++c) {
+          const T dn = dy[c] * weight[c];
+          sum_dn += dn;
+          sum_dn_n += dn * ((x[c] - m) * r);
+        }
+      } else {
+#pragma omp simd reduction(+ : sum_dn, sum_dn_n)
+        for (int64_t c = 0; c < C; ++c) {
+          sum_dn += dy[c];
+          sum_dn_n += dy[c] * ((x[c] - m) * r);
+        }
       }
       const T mdn = sum_dn / (T)C, mdnn = sum_dn_n / (T)C;
-      for (int64_t c = 0; c < C; ++c) {
-        const T n = (x[c] - m) * r;
-        const T dn = weight ? dy[c] * weight[c] : dy[c];
-        dx[c] = r * (dn - mdn - n * mdnn);
+      if (weight) {
+#pragma omp simd
+        for (int64_t c = 0; c < C; ++c) dx[c] = r * (dy[c] * weight[c] - mdn - (x[c] - m) * r * mdnn);
+      } else {
+#pragma omp simd
+        for (int64_t c = 0; c < C; ++c) dx[c] = r * (dy[c] - mdn - (x[c] - m) * r * mdnn);
       }
       if (pw) {
         for (int64_t c = 0; c < C; ++c) {
