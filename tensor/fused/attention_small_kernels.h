@@ -169,6 +169,30 @@ inline void wsum(T* out, const T* w, int64_t ws, const T* X, int64_t n, int64_t 
   }
 }
 
+// One row of the masked softmax: p[j] (j < Tk) from the scores s (may be p itself) of the keys j < jend with m[j]
+// != 0 (m null: all); the other p[j] are 0. False, and p all 0, when no key is visible.
+template <typename T>
+inline bool softmax_row(T* p, const T* s, const T* m, int64_t jend, int64_t Tk) {
+  T mx = 0;
+  bool any = false;
+  for (int64_t j = 0; j < jend; ++j) {
+    if (m && m[j] == (T)0) continue;
+    if (!any || s[j] > mx) mx = s[j];
+    any = true;
+  }
+  if (!any) {
+    for (int64_t j = 0; j < Tk; ++j) p[j] = 0;
+    return false;
+  }
+  for (int64_t j = 0; j < jend; ++j) p[j] = m && m[j] == (T)0 ? (T)0 : fexp(s[j] - mx);
+  for (int64_t j = jend; j < Tk; ++j) p[j] = 0;
+  T sum = 0;
+  for (int64_t j = 0; j < jend; ++j) sum += p[j];
+  const T inv = (T)1 / sum;
+  for (int64_t j = 0; j < jend; ++j) p[j] *= inv;
+  return true;
+}
+
 // One head: q (Tq,d), k/v (Tk,d), m (Tk) or null -> o (Tq,d), p (Tq,Tk).
 template <typename T, int D>
 void head_forward(T* o, T* p, const T* q, const T* k, const T* v, const T* m, int64_t Tq, int64_t Tk, int64_t d,
@@ -177,27 +201,10 @@ void head_forward(T* o, T* p, const T* q, const T* k, const T* v, const T* m, in
     T* pr = p + i * Tk;
     const int64_t jend = causal ? i + 1 : Tk;  // keys [jend, Tk) are hidden by the causal mask
     dots(pr, q + i * d, k, jend, d, scale);
-    T mx = 0;
-    bool any = false;
-    for (int64_t j = 0; j < jend; ++j) {
-      if (m && m[j] == (T)0) continue;
-      if (!any || pr[j] > mx) mx = pr[j];
-      any = true;
-    }
-    if (!any) {
-      for (int64_t j = 0; j < Tk; ++j) pr[j] = 0;
+    if (!softmax_row(pr, pr, m, jend, Tk)) {
       std::memset(o + i * d, 0, sizeof(T) * d);
       continue;
     }
-    for (int64_t j = 0; j < jend; ++j) pr[j] = fexp(pr[j] - mx);
-    if (m)
-      for (int64_t j = 0; j < jend; ++j)
-        if (m[j] == (T)0) pr[j] = 0;
-    for (int64_t j = jend; j < Tk; ++j) pr[j] = 0;
-    T sum = 0;
-    for (int64_t j = 0; j < jend; ++j) sum += pr[j];
-    const T inv = (T)1 / sum;
-    for (int64_t j = 0; j < jend; ++j) pr[j] *= inv;
     wsum<T, D>(o + i * d, pr, 1, v, jend, d);  // o_i = sum_j p_ij v_j
   }
 }
@@ -240,24 +247,7 @@ void head_forward_blocked(T* o, T* p, const T* q, const T* k, const T* v, const 
   for (int64_t i = 0; i < Tq; ++i) {
     T* pr = p + i * Tk;
     const T* sr = sc.scores + i * tkp;
-    const int64_t jend = causal ? i + 1 : Tk;
-    T mx = 0;
-    bool any = false;
-    for (int64_t j = 0; j < jend; ++j) {
-      if (m && m[j] == (T)0) continue;
-      if (!any || sr[j] > mx) mx = sr[j];
-      any = true;
-    }
-    if (!any) {  // no visible key: probabilities and output 0
-      for (int64_t j = 0; j < Tk; ++j) pr[j] = 0;
-      continue;
-    }
-    for (int64_t j = 0; j < jend; ++j) pr[j] = m && m[j] == (T)0 ? (T)0 : fexp(sr[j] - mx);
-    for (int64_t j = jend; j < Tk; ++j) pr[j] = 0;
-    T sum = 0;
-    for (int64_t j = 0; j < jend; ++j) sum += pr[j];
-    const T inv = (T)1 / sum;
-    for (int64_t j = 0; j < jend; ++j) pr[j] *= inv;
+    softmax_row(pr, sr, m, causal ? i + 1 : Tk, Tk);  // a row without visible keys gives p = 0, so o = 0
   }
   row_sums<T, D / L>(o, D, p, Tk, 1, v, D, Tq, Tk, (T)1);  // O = P V (hidden keys have p = 0)
 }
