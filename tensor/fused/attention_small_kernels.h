@@ -103,12 +103,14 @@ inline void transpose_padded(T* xt, int64_t ldt, const T* x, int64_t n) {
 }
 
 // The register-blocked path serves a head when D is a compile-time multiple of the vector width and the padded
-// score rows (Tk rounded up to whole vectors, at most 4) fit the per-thread scratch.
+// score rows (Tk rounded up to whole vectors, at most 4) fit the per-thread scratch. The largest compile-time head
+// dim (with_head_dim below) sizes the transposed K/V scratch.
 constexpr int64_t kMaxScoreVectors = 4;
+constexpr int kMaxBlockedHeadDim = 128;
 template <typename T, int D>
 inline int64_t padded_keys(int64_t Tq, int64_t Tk) {  // 0: not served
   constexpr int L = Vec<T>::L;
-  if constexpr (D == 0 || D % L != 0) {
+  if constexpr (D == 0 || D % L != 0 || D > kMaxBlockedHeadDim) {
     return 0;
   } else {
     const int64_t tkp = (Tk + L - 1) / L * L;
@@ -193,6 +195,14 @@ inline bool softmax_row(T* p, const T* s, const T* m, int64_t jend, int64_t Tk) 
   return true;
 }
 
+// The softmax backward of one row, in place: dP row d (Tk) -> dS = p * (d - sum_j p_j d_j) * scale.
+template <typename T>
+inline void softmax_grad_row(T* d, const T* p, int64_t Tk, T scale) {
+  T rs = 0;
+  for (int64_t j = 0; j < Tk; ++j) rs += p[j] * d[j];
+  for (int64_t j = 0; j < Tk; ++j) d[j] = p[j] * (d[j] - rs) * scale;
+}
+
 // One head: q (Tq,d), k/v (Tk,d), m (Tk) or null -> o (Tq,d), p (Tq,Tk).
 template <typename T, int D>
 void head_forward(T* o, T* p, const T* q, const T* k, const T* v, const T* m, int64_t Tq, int64_t Tk, int64_t d,
@@ -217,12 +227,9 @@ void head_backward(T* dq, T* dk, T* dv, const T* g, const T* p, const T* q, cons
     for (int64_t j = 0; j < Tk; ++j) wsum<T, D>(dv + j * d, p + j, Tk, g, Tq, d);  // dv_j = sum_i p_ij g_i
   if (!dq && !dk) return;
   for (int64_t i = 0; i < Tq; ++i) {
-    const T* pr = p + i * Tk;
     T* dr = ds + i * Tk;
     dots(dr, g + i * d, v, Tk, d, (T)1);  // dP row
-    T rs = 0;
-    for (int64_t j = 0; j < Tk; ++j) rs += pr[j] * dr[j];
-    for (int64_t j = 0; j < Tk; ++j) dr[j] = pr[j] * (dr[j] - rs) * scale;
+    softmax_grad_row(dr, p + i * Tk, Tk, scale);
   }
   if (dq)
     for (int64_t i = 0; i < Tq; ++i) wsum<T, D>(dq + i * d, ds + i * Tk, 1, k, Tk, d);  // dq_i = sum_j ds_ij k_j
@@ -234,7 +241,7 @@ void head_backward(T* dq, T* dk, T* dv, const T* g, const T* p, const T* q, cons
 template <typename T>
 struct HeadScratch {
   T scores[kSmallAttentionTile];
-  T xt[128 * kMaxScoreVectors * Vec<T>::L];
+  T xt[kMaxBlockedHeadDim * kMaxScoreVectors * Vec<T>::L];
 };
 
 // head_forward for a head served by the register-blocked path (tkp = padded_keys(Tq, Tk) > 0).
@@ -262,13 +269,7 @@ void head_backward_blocked(T* dq, T* dk, T* dv, const T* g, const T* p, const T*
   T* ds = sc.scores;
   transpose_padded<T, D>(sc.xt, tkp, v, Tk);
   row_sums_nv<T>(int(tkp / L), ds, tkp, g, D, 1, sc.xt, tkp, Tq, D, (T)1);  // dP = dO V^T
-  for (int64_t i = 0; i < Tq; ++i) {
-    const T* pr = p + i * Tk;
-    T* dr = ds + i * tkp;
-    T rs = 0;
-    for (int64_t j = 0; j < Tk; ++j) rs += pr[j] * dr[j];
-    for (int64_t j = 0; j < Tk; ++j) dr[j] = pr[j] * (dr[j] - rs) * scale;
-  }
+  for (int64_t i = 0; i < Tq; ++i) softmax_grad_row(ds + i * tkp, p + i * Tk, Tk, scale);
   if (dq) row_sums<T, D / L>(dq, D, ds, tkp, 1, k, D, Tq, Tk, (T)1);  // dQ = dS K
   if (dk) row_sums<T, D / L>(dk, D, ds, 1, tkp, q, D, Tk, Tq, (T)1);  // dK = dS^T Q
 }
