@@ -1,4 +1,7 @@
 // ops_mha.cpp — forward/backward of the multi-head attention core over the fused kernels.
+// Shapes the small-head path serves run fused::attention_heads_forward/backward: per head, straight from the
+// projections' rows into the output rows, and from the output gradient into d(src) (no head-layout copies).
+// Other shapes:
 // Forward:  gather heads (B,T,W)->(B,H,T,d) | rms_norm q,k | rope q,k (in place) | attention | merge heads.
 // Backward: gather g | (QK-norm: recompute normed+rotated q,k) | attention_backward | rope_backward (in place) |
 //           rms_norm_backward | scatter into d(src).
@@ -10,6 +13,7 @@
 
 #include "autograd/node.h"
 #include "tensor/fused/attention.h"
+#include "tensor/fused/attention_heads.h"
 #include "tensor/fused/rms_norm.h"
 #include "tensor/fused/rope.h"
 #include "tensor/parallel.h"
@@ -54,6 +58,8 @@ struct Sources {
 // (as large again) are recomputed in the backward by the same kernels, so they come out bit-identical.
 struct Saved {
   fused::AttentionShape s;
+  bool heads = false;  // the fused heads path: src, the norm weights, rstd, att and the rope tables are kept
+  Sources src;
   bool norm = false, rope = false;
   int64_t pos0 = 0;
   double base = 10000.0;
@@ -78,23 +84,49 @@ void normed_rotated(Tensor& q, Tensor& k, T* rstd_q, T* rstd_k, const Saved& sv)
   }
 }
 
+// The fused heads path's view of the saved sources (key_mask: the forward's, or null in the backward).
+template <typename T>
+fused::AttentionHeads<T> heads_args(const Saved& sv, const T* key_mask) {
+  fused::AttentionHeads<T> a;
+  a.s = sv.s;
+  a.q = sv.src.q.data<T>() + sv.src.qcol, a.ldq = sv.src.q.size(2);
+  a.k = sv.src.k.data<T>() + sv.src.kcol, a.ldk = sv.src.k.size(2);
+  a.v = sv.src.v.data<T>() + sv.src.vcol, a.ldv = sv.src.v.size(2);
+  a.key_mask = key_mask;
+  if (sv.norm) a.q_norm = sv.qn_w.data<T>(), a.k_norm = sv.kn_w.data<T>(), a.norm_eps = (T)sv.rstd_eps;
+  if (sv.rope) a.cos_tab = sv.cos_tab.data<T>(), a.sin_tab = sv.sin_tab.data<T>();
+  return a;
+}
+
 template <typename T>
 Tensor forward_impl(const Sources& src, const Tensor& qn_w, const Tensor& kn_w, const Tensor& mask, Saved& sv) {
   const fused::AttentionShape& s = sv.s;
   const int64_t B = s.B, H = s.H, Tq = s.Tq, Tk = s.Tk, d = s.d, Wq = src.q.size(2), Wk = src.k.size(2);
   const DType dt = src.q.dtype();
-  Tensor q = Tensor::empty({B, H, Tq, d}, dt), k = Tensor::empty({B, H, Tk, d}, dt);
-  sv.v = Tensor::empty({B, H, Tk, d}, dt);
-  gather_heads<T>(q.data<T>(), src.q.data<T>(), B, Tq, Wq, src.qcol, H, d);
-  gather_heads<T>(k.data<T>(), src.k.data<T>(), B, Tk, Wk, src.kcol, H, d);
-  gather_heads<T>(sv.v.data<T>(), src.v.data<T>(), B, Tk, src.v.size(2), src.vcol, H, d);
   if (sv.rope) {  // self-attention: Tq == Tk, one table
     sv.cos_tab = Tensor::empty({Tq, d / 2}, dt), sv.sin_tab = Tensor::empty({Tq, d / 2}, dt);
     fused::rope_table<T>(sv.cos_tab.data<T>(), sv.sin_tab.data<T>(), Tq, d, sv.base, sv.pos0);
   }
   if (sv.norm) {
-    sv.qh = q, sv.kh = k, sv.qn_w = qn_w, sv.kn_w = kn_w;
+    sv.qn_w = qn_w, sv.kn_w = kn_w;
     sv.rstd_q = Tensor::empty({B * H * Tq}, dt), sv.rstd_k = Tensor::empty({B * H * Tk}, dt);
+  }
+  sv.att = Tensor::empty({B, H, Tq, Tk}, dt);
+  if (fused::attention_heads_eligible(s)) {
+    sv.heads = true, sv.src = src;
+    Tensor out = Tensor::empty({B, Tq, H * d}, dt);
+    fused::attention_heads_forward<T>(out.data<T>(), H * d, sv.att.data<T>(),
+                                      sv.norm ? sv.rstd_q.data<T>() : nullptr, sv.norm ? sv.rstd_k.data<T>() : nullptr,
+                                      heads_args<T>(sv, mask.defined() ? mask.data<T>() : nullptr));
+    return out;
+  }
+  Tensor q = Tensor::empty({B, H, Tq, d}, dt), k = Tensor::empty({B, H, Tk, d}, dt);
+  sv.v = Tensor::empty({B, H, Tk, d}, dt);
+  gather_heads<T>(q.data<T>(), src.q.data<T>(), B, Tq, Wq, src.qcol, H, d);
+  gather_heads<T>(k.data<T>(), src.k.data<T>(), B, Tk, Wk, src.kcol, H, d);
+  gather_heads<T>(sv.v.data<T>(), src.v.data<T>(), B, Tk, src.v.size(2), src.vcol, H, d);
+  if (sv.norm) {
+    sv.qh = q, sv.kh = k;
     normed_rotated<T>(q, k, sv.rstd_q.data<T>(), sv.rstd_k.data<T>(), sv);
   } else {
     if (sv.rope) {
@@ -103,7 +135,6 @@ Tensor forward_impl(const Sources& src, const Tensor& qn_w, const Tensor& kn_w, 
     }
     sv.qr = q, sv.kr = k;
   }
-  sv.att = Tensor::empty({B, H, Tq, Tk}, dt);
   Tensor o = Tensor::empty({B, H, Tq, d}, dt);
   fused::attention_forward<T>(o.data<T>(), sv.att.data<T>(), q.data<T>(), k.data<T>(), sv.v.data<T>(),
                               mask.defined() ? mask.data<T>() : nullptr, s);
@@ -211,6 +242,30 @@ Tensor run_forward(const Sources& src, const Variable& qn, const Variable& kn, c
   return dt == DType::f32 ? forward_impl<float>(src, qw, kw, mask, sv) : forward_impl<double>(src, qw, kw, mask, sv);
 }
 
+// Where the fused heads backward writes: the gradients of the sources (any undefined: not needed) at the columns of
+// q, k and v, and the norm-weight gradients (accumulated; undefined: not needed).
+struct HeadsGradOut {
+  Tensor dq, dk, dv, dqn, dkn;
+};
+
+template <typename T>
+void heads_backward_impl(const Tensor& g, const Saved& sv, HeadsGradOut& o) {
+  auto at = [](Tensor& t, int64_t col) { return t.defined() ? t.data<T>() + col : nullptr; };
+  auto ld = [](const Tensor& t) { return t.defined() ? t.size(2) : int64_t(0); };
+  fused::attention_heads_backward<T>(at(o.dq, sv.src.qcol), ld(o.dq), at(o.dk, sv.src.kcol), ld(o.dk),
+                                     at(o.dv, sv.src.vcol), ld(o.dv), at(o.dqn, 0), at(o.dkn, 0), g.data<T>(),
+                                     g.size(2), sv.att.data<T>(), sv.norm ? sv.rstd_q.data<T>() : nullptr,
+                                     sv.norm ? sv.rstd_k.data<T>() : nullptr, heads_args<T>(sv, nullptr));
+}
+
+void run_heads_backward(const Tensor& grad, const Saved& sv, HeadsGradOut& o) {
+  const Tensor g = grad.contiguous();
+  if (g.dtype() == DType::f32)
+    heads_backward_impl<float>(g, sv, o);
+  else
+    heads_backward_impl<double>(g, sv, o);
+}
+
 HeadGrads run_backward(const Tensor& grad, const Saved& sv, bool q, bool k, bool v, bool qn, bool kn) {
   const Tensor g = grad.contiguous();
   return g.dtype() == DType::f32 ? backward_impl<float>(g, sv, q, k, v, qn, kn)
@@ -240,8 +295,16 @@ Variable mha_self(const Variable& qkv, const Variable& q_norm, const Variable& k
   if (q_norm.defined()) inputs.insert(inputs.end(), {q_norm, k_norm});
   return record("mha_self", out, inputs, [sv, D](const Tensor& g, const std::vector<bool>& need) {
     const bool nx = need[0], nqn = sv->norm && need[1], nkn = sv->norm && need[2];
-    HeadGrads h = run_backward(g, *sv, nx, nx, nx, nqn, nkn);
     std::vector<Tensor> r(need.size());
+    if (sv->heads) {
+      HeadsGradOut o;
+      if (nx) o.dq = o.dk = o.dv = r[0] = Tensor::empty({sv->s.B, sv->s.Tq, 3 * D}, g.dtype());  // all written
+      if (nqn) o.dqn = r[1] = Tensor::zeros({sv->s.d}, g.dtype());
+      if (nkn) o.dkn = r[2] = Tensor::zeros({sv->s.d}, g.dtype());
+      run_heads_backward(g, *sv, o);
+      return r;
+    }
+    HeadGrads h = run_backward(g, *sv, nx, nx, nx, nqn, nkn);
     if (nx) {
       r[0] = Tensor::empty({sv->s.B, sv->s.Tq, 3 * D}, g.dtype());  // every column is written below
       scatter_grad(r[0], h.dq, 0);
@@ -268,8 +331,17 @@ Variable mha_cross(const Variable& q, const Variable& kv, const Variable& q_norm
   if (q_norm.defined()) inputs.insert(inputs.end(), {q_norm, k_norm});
   return record("mha_cross", out, inputs, [sv, D](const Tensor& g, const std::vector<bool>& need) {
     const bool nqn = sv->norm && need[2], nkn = sv->norm && need[3];
-    HeadGrads h = run_backward(g, *sv, need[0], need[1], need[1], nqn, nkn);
     std::vector<Tensor> r(need.size());
+    if (sv->heads) {
+      HeadsGradOut o;
+      if (need[0]) o.dq = r[0] = Tensor::empty({sv->s.B, sv->s.Tq, D}, g.dtype());
+      if (need[1]) o.dk = o.dv = r[1] = Tensor::empty({sv->s.B, sv->s.Tk, 2 * D}, g.dtype());
+      if (nqn) o.dqn = r[2] = Tensor::zeros({sv->s.d}, g.dtype());
+      if (nkn) o.dkn = r[3] = Tensor::zeros({sv->s.d}, g.dtype());
+      run_heads_backward(g, *sv, o);
+      return r;
+    }
+    HeadGrads h = run_backward(g, *sv, need[0], need[1], need[1], nqn, nkn);
     if (need[0]) {
       r[0] = Tensor::empty({sv->s.B, sv->s.Tq, D}, g.dtype());
       scatter_grad(r[0], h.dq, 0);

@@ -11,8 +11,12 @@
 // Cross: q (B, Tq, H*d), kv (B, Tk, 2*H*d) — columns [k | v]  ->  (B, Tq, H*d).
 // q_norm / k_norm: both undefined (no QK norm) or both (d) Variables. key_mask: undefined or (B, Tk), any dtype,
 // nonzero = visible. causal needs Tq == Tk (self only). Inputs of any strides (copied once when not contiguous).
-// The node saves the pre-norm q/k heads and their rstd (with QK-norm; the normed, rotated q/k are recomputed in
-// the backward) or the rotated q/k (without), v and the (B, H, Tq, Tk) probabilities.
+// Shapes the small-head attention serves (tensor/fused/attention_heads.h: the fm generator's) run fused per head
+// straight from the input rows into the output rows, and back into the input gradient; the node keeps the inputs,
+// the rstd of the QK-norm and the (B, H, Tq, Tk) probabilities (q/k are normed and rotated again per head in the
+// backward). Other shapes split the heads into (B, H, T, d) copies and save the pre-norm q/k heads and their rstd
+// (with QK-norm; the normed, rotated q/k are recomputed in the backward) or the rotated q/k (without), v and the
+// probabilities.
 // Backward writes the gradient of the packed input directly (no zero-fill, no per-part scatter-and-add).
 // Errors (t2m::Error, message starts "mha_self:"/"mha_cross:" and names the shapes): wrong ranks, a last dim
 // that is not 3*H*d / H*d / 2*H*d, B mismatch, H < 1, odd d with rope, only one norm weight or one not of size d,

@@ -1,7 +1,9 @@
 // test_ag_mha.cpp — the fused multi-head attention core (mha_self / mha_cross): values and gradients against a
 // composition of single autograd ops written the way torch_ref.py writes it (view, permute, RMS-norm from
 // elementwise ops, rope, attention, transpose, reshape); float64 finite-difference gradchecks with and without
-// QK-norm, RoPE, key mask and causal; float32 agreement; bad use throws.
+// QK-norm, RoPE, key mask and causal; float32 agreement; bad use throws. Each on both implementations: the fused
+// per-head path (tensor/fused/attention_heads.h, what these small shapes get) and, with attention_force_path("gemm"),
+// the (B, H, T, d) head copies.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -13,6 +15,8 @@
 #include "autograd/ops_reduce.h"
 #include "autograd/ops_shape.h"
 #include "autograd/ops_unary.h"
+#include "tensor/fused/attention.h"
+#include "tensor/fused/attention_heads.h"
 #include "tensor/ops.h"
 #include "tensor/rng.h"
 #include "test_tensor_util.h"
@@ -29,6 +33,20 @@ Tensor randn(const Shape& s, uint64_t seed, DType dt = DType::f64) {
 
 ag::Variable rms(const ag::Variable& x, const ag::Variable& w, double eps) {
   return x * ag::rsqrt(ag::mean(ag::square(x), {-1}, true) + eps) * w;
+}
+
+// Runs f once per implementation of the op, naming it in the failure trace.
+template <typename F>
+void on_both_paths(F&& f) {
+  for (const char* path : {"auto", "gemm"}) {
+    SCOPED_TRACE(std::string("attention path ") + path);
+    fused::attention_force_path(path);
+    fused::AttentionShape s;
+    s.Tq = s.Tk = 4, s.d = 4;
+    EXPECT_EQ(fused::attention_heads_eligible(s), std::string(path) == "auto");
+    f();
+  }
+  fused::attention_force_path("auto");
 }
 
 // (B, T, n*H*d) -> the n parts as (B, H, T, d) views.
@@ -87,69 +105,77 @@ void expect_same(const std::function<ag::Variable(const std::vector<ag::Variable
 }  // namespace
 
 TEST(AgMha, SelfMatchesComposedOps) {
-  const int64_t B = 2, T = 5, H = 2, d = 4;
-  for (int variant = 0; variant < 4; ++variant) {
-    ag::MhaOptions o;
-    o.heads = H;
-    o.rope = variant >= 1;
-    o.rope_pos0 = variant == 3 ? 3 : 0;
-    o.causal = variant == 2;
-    const bool norm = variant != 1;
-    const Tensor mask = variant == 3 ? mask_of(B, T) : Tensor();
-    std::vector<Tensor> in{randn({B, T, 3 * H * d}, 1 + variant)};
-    if (norm) in.push_back(t2m::add(randn({d}, 10 + variant), 1.0)), in.push_back(randn({d}, 20 + variant));
-    auto fused = [&](const std::vector<ag::Variable>& x) {
-      return ag::mha_self(x[0], norm ? x[1] : ag::Variable(), norm ? x[2] : ag::Variable(), mask, o);
-    };
-    auto composed = [&](const std::vector<ag::Variable>& x) {
-      return ref_self(x[0], norm ? x[1] : ag::Variable(), norm ? x[2] : ag::Variable(), mask, o);
-    };
-    SCOPED_TRACE("variant " + std::to_string(variant));
-    expect_same(fused, composed, in, 1e-12);
-    // float32 forward agrees with float64 to float precision
-    std::vector<ag::Variable> x32;
-    for (const Tensor& t : in) x32.emplace_back(t.to(DType::f32));
-    Tensor y32 = fused(x32).data().to(DType::f64);
-    std::vector<ag::Variable> x64;
-    for (const Tensor& t : in) x64.emplace_back(t);
-    EXPECT_LT(max_abs_diff(y32, fused(x64).data()), 5e-5);
-  }
+  on_both_paths([] {
+    const int64_t B = 2, T = 5, H = 2, d = 4;
+    for (int variant = 0; variant < 4; ++variant) {
+      ag::MhaOptions o;
+      o.heads = H;
+      o.rope = variant >= 1;
+      o.rope_pos0 = variant == 3 ? 3 : 0;
+      o.causal = variant == 2;
+      const bool norm = variant != 1;
+      const Tensor mask = variant == 3 ? mask_of(B, T) : Tensor();
+      std::vector<Tensor> in{randn({B, T, 3 * H * d}, 1 + variant)};
+      if (norm) in.push_back(t2m::add(randn({d}, 10 + variant), 1.0)), in.push_back(randn({d}, 20 + variant));
+      auto fused = [&](const std::vector<ag::Variable>& x) {
+        return ag::mha_self(x[0], norm ? x[1] : ag::Variable(), norm ? x[2] : ag::Variable(), mask, o);
+      };
+      auto composed = [&](const std::vector<ag::Variable>& x) {
+        return ref_self(x[0], norm ? x[1] : ag::Variable(), norm ? x[2] : ag::Variable(), mask, o);
+      };
+      SCOPED_TRACE("variant " + std::to_string(variant));
+      expect_same(fused, composed, in, 1e-12);
+      // float32 forward agrees with float64 to float precision
+      std::vector<ag::Variable> x32;
+      for (const Tensor& t : in) x32.emplace_back(t.to(DType::f32));
+      Tensor y32 = fused(x32).data().to(DType::f64);
+      std::vector<ag::Variable> x64;
+      for (const Tensor& t : in) x64.emplace_back(t);
+      EXPECT_LT(max_abs_diff(y32, fused(x64).data()), 5e-5);
+    }
+  });
 }
 
 TEST(AgMha, CrossMatchesComposedOpsWithOtherContextLength) {
-  const int64_t B = 2, Tq = 3, Tk = 6, H = 2, d = 3;
-  ag::MhaOptions o;
-  o.heads = H;
-  const Tensor mask = mask_of(B, Tk);
-  for (bool norm : {false, true}) {
-    std::vector<Tensor> in{randn({B, Tq, H * d}, 30), randn({B, Tk, 2 * H * d}, 31)};
-    if (norm) in.push_back(randn({d}, 32)), in.push_back(randn({d}, 33));
-    auto fused = [&](const std::vector<ag::Variable>& x) {
-      return ag::mha_cross(x[0], x[1], norm ? x[2] : ag::Variable(), norm ? x[3] : ag::Variable(), mask, o);
-    };
-    auto composed = [&](const std::vector<ag::Variable>& x) {
-      return ref_cross(x[0], x[1], norm ? x[2] : ag::Variable(), norm ? x[3] : ag::Variable(), mask, o);
-    };
-    SCOPED_TRACE(norm ? "qk-norm" : "plain");
-    expect_same(fused, composed, in, 1e-12);
-  }
+  on_both_paths([] {
+    const int64_t B = 2, Tq = 3, Tk = 6, H = 2, d = 3;
+    ag::MhaOptions o;
+    o.heads = H;
+    const Tensor mask = mask_of(B, Tk);
+    for (bool norm : {false, true}) {
+      std::vector<Tensor> in{randn({B, Tq, H * d}, 30), randn({B, Tk, 2 * H * d}, 31)};
+      if (norm) in.push_back(randn({d}, 32)), in.push_back(randn({d}, 33));
+      auto fused = [&](const std::vector<ag::Variable>& x) {
+        return ag::mha_cross(x[0], x[1], norm ? x[2] : ag::Variable(), norm ? x[3] : ag::Variable(), mask, o);
+      };
+      auto composed = [&](const std::vector<ag::Variable>& x) {
+        return ref_cross(x[0], x[1], norm ? x[2] : ag::Variable(), norm ? x[3] : ag::Variable(), mask, o);
+      };
+      SCOPED_TRACE(norm ? "qk-norm" : "plain");
+      expect_same(fused, composed, in, 1e-12);
+    }
+  });
 }
 
 TEST(AgMha, GradcheckSelfAndCross) {
-  ag::MhaOptions o;
-  o.heads = 2;
-  o.rope = true;
-  o.rope_pos0 = 2;
-  o.causal = true;
-  const Tensor mask = mask_of(2, 3);
-  auto self = [&](const std::vector<ag::Variable>& x) { return ag::mha_self(x[0], x[1], x[2], mask, o); };
-  ag::GradcheckResult r = ag::gradcheck(self, {randn({2, 3, 12}, 40), randn({2}, 41), randn({2}, 42)});
-  EXPECT_TRUE(r.ok) << r.message;
-  ag::MhaOptions oc;
-  oc.heads = 2;
-  auto cross = [&](const std::vector<ag::Variable>& x) { return ag::mha_cross(x[0], x[1], x[2], x[3], Tensor(), oc); };
-  r = ag::gradcheck(cross, {randn({1, 2, 4}, 43), randn({1, 5, 8}, 44), randn({2}, 45), randn({2}, 46)});
-  EXPECT_TRUE(r.ok) << r.message;
+  on_both_paths([] {
+    ag::MhaOptions o;
+    o.heads = 2;
+    o.rope = true;
+    o.rope_pos0 = 2;
+    o.causal = true;
+    const Tensor mask = mask_of(2, 3);
+    auto self = [&](const std::vector<ag::Variable>& x) { return ag::mha_self(x[0], x[1], x[2], mask, o); };
+    ag::GradcheckResult r = ag::gradcheck(self, {randn({2, 3, 12}, 40), randn({2}, 41), randn({2}, 42)});
+    EXPECT_TRUE(r.ok) << r.message;
+    ag::MhaOptions oc;
+    oc.heads = 2;
+    auto cross = [&](const std::vector<ag::Variable>& x) {
+      return ag::mha_cross(x[0], x[1], x[2], x[3], Tensor(), oc);
+    };
+    r = ag::gradcheck(cross, {randn({1, 2, 4}, 43), randn({1, 5, 8}, 44), randn({2}, 45), randn({2}, 46)});
+    EXPECT_TRUE(r.ok) << r.message;
+  });
 }
 
 TEST(AgMha, StridedInputAndPartialGradients) {

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <string>
 
+#include "tensor/fused/attention_heads.h"
 #include "tensor/fused/attention_small.h"
 #include "tensor/fused/fast_exp.h"
 #include "tensor/fused/kernel_util.h"
@@ -136,6 +137,82 @@ void attention_backward(T* dq, T* dk, T* dv, const T* dout, const T* att, const 
     gemm_batched(true, false, BH, Tk, d, Tq, (T)1, ds, Tk, Tq * Tk, q, d, Tq * d, (T)0, dk, d, Tk * d);
   }
 }
+
+bool attention_heads_eligible(const AttentionShape& s) { return use_small(s); }
+
+namespace {
+
+// The checks of attention_heads_forward/backward beyond check_shape: the fused path serves s, leading dimensions
+// hold H*d columns, the norm weights and the RoPE tables come in pairs, RoPE has one position table (Tq == Tk).
+template <typename T>
+void check_heads(const char* op, const AttentionHeads<T>& a) {
+  const AttentionShape& s = a.s;
+  check_shape(op, s);
+  if (!attention_heads_eligible(s))
+    throw Error(std::string(op) + ": shape not served by the fused heads path (Tq*Tk=" + std::to_string(s.Tq * s.Tk) +
+                ", d=" + std::to_string(s.d) + "); use the (B, H, T, d) attention");
+  const int64_t w = s.H * s.d;
+  if (a.ldq < w || a.ldk < w || a.ldv < w)
+    throw Error(std::string(op) + ": leading dimensions must be >= H*d = " + std::to_string(w) + ", got " +
+                std::to_string(a.ldq) + ", " + std::to_string(a.ldk) + ", " + std::to_string(a.ldv));
+  if ((a.q_norm == nullptr) != (a.k_norm == nullptr))
+    throw Error(std::string(op) + ": give both norm weights or neither");
+  if ((a.cos_tab == nullptr) != (a.sin_tab == nullptr))
+    throw Error(std::string(op) + ": give both RoPE tables or neither");
+  if (a.cos_tab && (s.Tq != s.Tk || s.d % 2 != 0))
+    throw Error(std::string(op) + ": RoPE needs Tq == Tk and an even d, got Tq=" + std::to_string(s.Tq) + " Tk=" +
+                std::to_string(s.Tk) + " d=" + std::to_string(s.d));
+  if (!(a.norm_eps >= 0)) throw Error(std::string(op) + ": norm_eps must be >= 0");
+  if (s.B == 0) return;
+  check_ptr(op, "q", a.q);
+  check_ptr(op, "k", a.k);
+  check_ptr(op, "v", a.v);
+}
+
+}  // namespace
+
+template <typename T>
+void attention_heads_forward(T* out, int64_t ldo, T* att, T* rstd_q, T* rstd_k, const AttentionHeads<T>& a) {
+  const char* op = "attention_heads_forward";
+  check_heads(op, a);
+  if (a.s.B == 0) return;
+  check_ptr(op, "out", out);
+  check_ptr(op, "att", att);
+  if (ldo < a.s.H * a.s.d) throw Error("attention_heads_forward: ldo must be >= H*d, got " + std::to_string(ldo));
+  if (a.q_norm) {
+    check_ptr(op, "rstd_q", rstd_q);
+    check_ptr(op, "rstd_k", rstd_k);
+  }
+  attention_small_heads_forward(out, ldo, att, rstd_q, rstd_k, a);
+}
+
+template <typename T>
+void attention_heads_backward(T* dq, int64_t lddq, T* dk, int64_t lddk, T* dv, int64_t lddv, T* dq_norm, T* dk_norm,
+                              const T* dout, int64_t ldg, const T* att, const T* rstd_q, const T* rstd_k,
+                              const AttentionHeads<T>& a) {
+  const char* op = "attention_heads_backward";
+  check_heads(op, a);
+  if (a.s.B == 0) return;
+  check_ptr(op, "dout", dout);
+  check_ptr(op, "att", att);
+  const int64_t w = a.s.H * a.s.d;
+  if (ldg < w || (dq && lddq < w) || (dk && lddk < w) || (dv && lddv < w))
+    throw Error("attention_heads_backward: leading dimensions must be >= H*d = " + std::to_string(w));
+  if (a.q_norm) {
+    check_ptr(op, "rstd_q", rstd_q);
+    check_ptr(op, "rstd_k", rstd_k);
+  }
+  attention_small_heads_backward(dq, lddq, dk, lddk, dv, lddv, a.q_norm ? dq_norm : nullptr,
+                                 a.q_norm ? dk_norm : nullptr, dout, ldg, att, rstd_q, rstd_k, a);
+}
+
+#define T2M_HEADS_INSTANTIATE(T)                                                                                   \
+  template void attention_heads_forward<T>(T*, int64_t, T*, T*, T*, const AttentionHeads<T>&);                   \
+  template void attention_heads_backward<T>(T*, int64_t, T*, int64_t, T*, int64_t, T*, T*, const T*, int64_t,     \
+                                            const T*, const T*, const T*, const AttentionHeads<T>&);
+T2M_HEADS_INSTANTIATE(float)
+T2M_HEADS_INSTANTIATE(double)
+#undef T2M_HEADS_INSTANTIATE
 
 template void attention_forward<float>(float*, float*, const float*, const float*, const float*, const float*,
                                        const AttentionShape&);

@@ -39,6 +39,30 @@ void attention_small_backward(T* dq, T* dk, T* dv, const T* dout, const T* att, 
   small_backward_all(dq, dk, dv, dout, att, q, k, v, s);
 }
 
+template <typename T>
+void attention_small_heads_forward(T* out, int64_t ldo, T* att, T* rstd_q, T* rstd_k, const AttentionHeads<T>& a) {
+  if (have_avx512()) return attention_small_heads_forward_avx512(out, ldo, att, rstd_q, rstd_k, a);
+  small_heads_forward_all(out, ldo, att, rstd_q, rstd_k, a);
+}
+
+template <typename T>
+void attention_small_heads_backward(T* dq, int64_t lddq, T* dk, int64_t lddk, T* dv, int64_t lddv, T* dq_norm,
+                                    T* dk_norm, const T* dout, int64_t ldg, const T* att, const T* rstd_q,
+                                    const T* rstd_k, const AttentionHeads<T>& a) {
+  if (have_avx512())
+    return attention_small_heads_backward_avx512(dq, lddq, dk, lddk, dv, lddv, dq_norm, dk_norm, dout, ldg, att,
+                                                 rstd_q, rstd_k, a);
+  small_heads_backward_all(dq, lddq, dk, lddk, dv, lddv, dq_norm, dk_norm, dout, ldg, att, rstd_q, rstd_k, a);
+}
+
+#define T2M_HEADS_INSTANTIATE(T)                                                                                   \
+  template void attention_small_heads_forward<T>(T*, int64_t, T*, T*, T*, const AttentionHeads<T>&);             \
+  template void attention_small_heads_backward<T>(T*, int64_t, T*, int64_t, T*, int64_t, T*, T*, const T*,        \
+                                                  int64_t, const T*, const T*, const T*, const AttentionHeads<T>&);
+T2M_HEADS_INSTANTIATE(float)
+T2M_HEADS_INSTANTIATE(double)
+#undef T2M_HEADS_INSTANTIATE
+
 template void attention_small_forward<float>(float*, float*, const float*, const float*, const float*, const float*,
                                              const AttentionShape&);
 template void attention_small_forward<double>(double*, double*, const double*, const double*, const double*,

@@ -12,6 +12,7 @@
 #include <cstdint>
 
 #include "tensor/fused/attention.h"
+#include "tensor/fused/attention_heads.h"
 
 namespace t2m::fused {
 
@@ -27,6 +28,14 @@ template <typename T>
 void attention_small_backward(T* dq, T* dk, T* dv, const T* dout, const T* att, const T* q, const T* k, const T* v,
                               const AttentionShape& s);
 
+// attention_heads_forward/backward (attention_heads.h) after their argument checks.
+template <typename T>
+void attention_small_heads_forward(T* out, int64_t ldo, T* att, T* rstd_q, T* rstd_k, const AttentionHeads<T>& a);
+template <typename T>
+void attention_small_heads_backward(T* dq, int64_t lddq, T* dk, int64_t lddk, T* dv, int64_t lddv, T* dq_norm,
+                                    T* dk_norm, const T* dout, int64_t ldg, const T* att, const T* rstd_q,
+                                    const T* rstd_k, const AttentionHeads<T>& a);
+
 // Tests: run the baseline (AVX2) build of the loops even on a CPU with AVX-512 (true), or choose by the CPU again
 // (false, the default).
 void attention_small_force_baseline(bool on);
@@ -35,6 +44,13 @@ void attention_small_force_baseline(bool on);
 template <typename T>
 void attention_small_forward_avx512(T* out, T* att, const T* q, const T* k, const T* v, const T* key_mask,
                                     const AttentionShape& s);
+template <typename T>
+void attention_small_heads_forward_avx512(T* out, int64_t ldo, T* att, T* rstd_q, T* rstd_k,
+                                          const AttentionHeads<T>& a);
+template <typename T>
+void attention_small_heads_backward_avx512(T* dq, int64_t lddq, T* dk, int64_t lddk, T* dv, int64_t lddv,
+                                           T* dq_norm, T* dk_norm, const T* dout, int64_t ldg, const T* att,
+                                           const T* rstd_q, const T* rstd_k, const AttentionHeads<T>& a);
 template <typename T>
 void attention_small_backward_avx512(T* dq, T* dk, T* dv, const T* dout, const T* att, const T* q, const T* k,
                                      const T* v, const AttentionShape& s);

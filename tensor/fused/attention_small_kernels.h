@@ -8,13 +8,23 @@
 // (row_sums: a block of output rows, one vector accumulator per row and lane group, an FMA chain over the inner
 // index); the score and dP products read a transposed copy of K or V (D x Tk, zero padded to whole vectors) so that
 // they are row sums too. Other head dims, and heads too wide for the padded scratch, run dot products and axpys.
+// Every head function takes row strides (HeadRows), so the same loops serve the (B, H, T, d) layout
+// (small_forward_all / small_backward_all) and heads read and written in place in the projections' rows
+// (small_heads_forward_all / small_heads_backward_all, attention_heads.h: q and k go through per-thread scratch for
+// the QK-norm and RoPE).
 #pragma once
 #include <cmath>
 #include <cstring>
 
+#include <omp.h>
+
+#include "tensor/fused/attention_heads.h"
 #include "tensor/fused/attention_small.h"
 #include "tensor/fused/fast_exp.h"
 #include "tensor/fused/kernel_util.h"
+#include "tensor/fused/rms_norm.h"
+#include "tensor/fused/rope.h"
+#include "tensor/fused/scratch.h"
 
 namespace t2m::fused {
 namespace {
@@ -92,12 +102,12 @@ inline void row_sums_nv(int nv, T* out, int64_t ldo, const T* w, int64_t wr, int
   }
 }
 
-// xt (D x ldt) = x (n x D) transposed, columns n..ldt-1 zero.
+// xt (D x ldt) = x (n x D, row stride ldx) transposed, columns n..ldt-1 zero.
 template <typename T, int D>
-inline void transpose_padded(T* xt, int64_t ldt, const T* x, int64_t n) {
+inline void transpose_padded(T* xt, int64_t ldt, const T* x, int64_t ldx, int64_t n) {
   for (int c = 0; c < D; ++c) {
     T* row = xt + c * ldt;
-    for (int64_t j = 0; j < n; ++j) row[j] = x[j * D + c];
+    for (int64_t j = 0; j < n; ++j) row[j] = x[j * ldx + c];
     for (int64_t j = n; j < ldt; ++j) row[j] = 0;
   }
 }
@@ -126,12 +136,12 @@ inline T dot(const T* a, const T* b, int64_t d) {
   return s;
 }
 
-// out[j] = scale * dot(a, B_j) for rows B_j of B (n x d, row stride d), four rows per pass over a.
+// out[j] = scale * dot(a, B_j) for rows B_j of B (n x d, row stride ldb), four rows per pass over a.
 template <typename T>
-inline void dots(T* out, const T* a, const T* B, int64_t n, int64_t d, T scale) {
+inline void dots(T* out, const T* a, const T* B, int64_t ldb, int64_t n, int64_t d, T scale) {
   int64_t j = 0;
   for (; j + 4 <= n; j += 4) {
-    const T *b0 = B + j * d, *b1 = b0 + d, *b2 = b1 + d, *b3 = b2 + d;
+    const T *b0 = B + j * ldb, *b1 = b0 + ldb, *b2 = b1 + ldb, *b3 = b2 + ldb;
     T s0 = 0, s1 = 0, s2 = 0, s3 = 0;
 #pragma omp simd reduction(+ : s0, s1, s2, s3)
     for (int64_t c = 0; c < d; ++c) {
@@ -142,7 +152,7 @@ inline void dots(T* out, const T* a, const T* B, int64_t n, int64_t d, T scale) 
     }
     out[j] = s0 * scale, out[j + 1] = s1 * scale, out[j + 2] = s2 * scale, out[j + 3] = s3 * scale;
   }
-  for (; j < n; ++j) out[j] = dot(a, B + j * d, d) * scale;
+  for (; j < n; ++j) out[j] = dot(a, B + j * ldb, d) * scale;
 }
 
 template <typename T>
@@ -151,15 +161,15 @@ inline void axpy(T* y, T a, const T* x, int64_t d) {
   for (int64_t c = 0; c < d; ++c) y[c] += a * x[c];
 }
 
-// out (D) = sum_r w[r * ws] X[r] over n rows X[r] (row stride D): the accumulator stays in registers when D is a
+// out (D) = sum_r w[r * ws] X[r] over n rows X[r] (row stride ldx): the accumulator stays in registers when D is a
 // compile-time constant (D = 0: run-time d, accumulated in out).
 template <typename T, int D>
-inline void wsum(T* out, const T* w, int64_t ws, const T* X, int64_t n, int64_t d) {
+inline void wsum(T* out, const T* w, int64_t ws, const T* X, int64_t ldx, int64_t n, int64_t d) {
   if constexpr (D > 0) {
     T acc[D] = {};
     for (int64_t r = 0; r < n; ++r) {
       const T wr = w[r * ws];
-      const T* xr = X + r * D;
+      const T* xr = X + r * ldx;
 #pragma omp simd
       for (int c = 0; c < D; ++c) acc[c] += wr * xr[c];
     }
@@ -167,7 +177,7 @@ inline void wsum(T* out, const T* w, int64_t ws, const T* X, int64_t n, int64_t 
     for (int c = 0; c < D; ++c) out[c] = acc[c];
   } else {
     std::memset(out, 0, sizeof(T) * d);
-    for (int64_t r = 0; r < n; ++r) axpy(out, w[r * ws], X + r * d, d);
+    for (int64_t r = 0; r < n; ++r) axpy(out, w[r * ws], X + r * ldx, d);
   }
 }
 
@@ -203,38 +213,53 @@ inline void softmax_grad_row(T* d, const T* p, int64_t Tk, T scale) {
   for (int64_t j = 0; j < Tk; ++j) d[j] = p[j] * (d[j] - rs) * scale;
 }
 
-// One head: q (Tq,d), k/v (Tk,d), m (Tk) or null -> o (Tq,d), p (Tq,Tk).
+// Where one head's rows are: row t of q at q + t * ldq, and so on. ld = d in the (B, H, T, d) layout; heads read
+// and written in place in the projections' (B, T, W) rows (attention_heads.h) have ld = W. o is the output in the
+// forward and dO in the backward.
+template <typename T>
+struct HeadRows {
+  const T *q, *k, *v, *o;
+  int64_t ldq, ldk, ldv, ldo;
+};
+// The gradients of a head (any pointer may be null) and their row strides.
+template <typename T>
+struct HeadGradRows {
+  T *dq, *dk, *dv;
+  int64_t ldq, ldk, ldv;
+};
+
+// One head: q (Tq,d), k/v (Tk,d), m (Tk) or null -> o (Tq,d; x.o is the same rows, read-only), p (Tq,Tk).
 template <typename T, int D>
-void head_forward(T* o, T* p, const T* q, const T* k, const T* v, const T* m, int64_t Tq, int64_t Tk, int64_t d,
-                  bool causal, T scale) {
+void head_forward(T* o, const HeadRows<T>& x, T* p, const T* m, int64_t Tq, int64_t Tk, int64_t d, bool causal,
+                  T scale) {
   for (int64_t i = 0; i < Tq; ++i) {
     T* pr = p + i * Tk;
     const int64_t jend = causal ? i + 1 : Tk;  // keys [jend, Tk) are hidden by the causal mask
-    dots(pr, q + i * d, k, jend, d, scale);
+    dots(pr, x.q + i * x.ldq, x.k, x.ldk, jend, d, scale);
     if (!softmax_row(pr, pr, m, jend, Tk)) {
-      std::memset(o + i * d, 0, sizeof(T) * d);
+      std::memset(o + i * x.ldo, 0, sizeof(T) * d);
       continue;
     }
-    wsum<T, D>(o + i * d, pr, 1, v, jend, d);  // o_i = sum_j p_ij v_j
+    wsum<T, D>(o + i * x.ldo, pr, 1, x.v, x.ldv, jend, d);  // o_i = sum_j p_ij v_j
   }
 }
 
-// One head: g (Tq,d), p (Tq,Tk) -> dq (Tq,d), dk/dv (Tk,d) (any may be null); ds: Tq*Tk scratch.
+// One head: dO = x.o (Tq,d), p (Tq,Tk) -> dq (Tq,d), dk/dv (Tk,d) (any may be null); ds: Tq*Tk scratch.
 template <typename T, int D>
-void head_backward(T* dq, T* dk, T* dv, const T* g, const T* p, const T* q, const T* k, const T* v, int64_t Tq,
-                   int64_t Tk, int64_t d, T scale, T* ds) {
-  if (dv)
-    for (int64_t j = 0; j < Tk; ++j) wsum<T, D>(dv + j * d, p + j, Tk, g, Tq, d);  // dv_j = sum_i p_ij g_i
-  if (!dq && !dk) return;
+void head_backward(const HeadGradRows<T>& gr, const HeadRows<T>& x, const T* p, int64_t Tq, int64_t Tk, int64_t d,
+                   T scale, T* ds) {
+  if (gr.dv)  // dv_j = sum_i p_ij g_i
+    for (int64_t j = 0; j < Tk; ++j) wsum<T, D>(gr.dv + j * gr.ldv, p + j, Tk, x.o, x.ldo, Tq, d);
+  if (!gr.dq && !gr.dk) return;
   for (int64_t i = 0; i < Tq; ++i) {
     T* dr = ds + i * Tk;
-    dots(dr, g + i * d, v, Tk, d, (T)1);  // dP row
+    dots(dr, x.o + i * x.ldo, x.v, x.ldv, Tk, d, (T)1);  // dP row
     softmax_grad_row(dr, p + i * Tk, Tk, scale);
   }
-  if (dq)
-    for (int64_t i = 0; i < Tq; ++i) wsum<T, D>(dq + i * d, ds + i * Tk, 1, k, Tk, d);  // dq_i = sum_j ds_ij k_j
-  if (dk)
-    for (int64_t j = 0; j < Tk; ++j) wsum<T, D>(dk + j * d, ds + j, Tk, q, Tq, d);  // dk_j = sum_i ds_ij q_i
+  if (gr.dq)  // dq_i = sum_j ds_ij k_j
+    for (int64_t i = 0; i < Tq; ++i) wsum<T, D>(gr.dq + i * gr.ldq, ds + i * Tk, 1, x.k, x.ldk, Tk, d);
+  if (gr.dk)  // dk_j = sum_i ds_ij q_i
+    for (int64_t j = 0; j < Tk; ++j) wsum<T, D>(gr.dk + j * gr.ldk, ds + j, Tk, x.q, x.ldq, Tq, d);
 }
 
 // Scratch of one thread for the register-blocked path: scores or dS (Tq x tkp), and K or V transposed (D x tkp).
@@ -246,32 +271,32 @@ struct HeadScratch {
 
 // head_forward for a head served by the register-blocked path (tkp = padded_keys(Tq, Tk) > 0).
 template <typename T, int D>
-void head_forward_blocked(T* o, T* p, const T* q, const T* k, const T* v, const T* m, int64_t Tq, int64_t Tk,
-                          int64_t tkp, bool causal, T scale, HeadScratch<T>& sc) {
+void head_forward_blocked(T* o, const HeadRows<T>& x, T* p, const T* m, int64_t Tq, int64_t Tk, int64_t tkp,
+                          bool causal, T scale, HeadScratch<T>& sc) {
   constexpr int L = Vec<T>::L;
-  transpose_padded<T, D>(sc.xt, tkp, k, Tk);
-  row_sums_nv<T>(int(tkp / L), sc.scores, tkp, q, D, 1, sc.xt, tkp, Tq, D, scale);  // S = scale Q K^T
+  transpose_padded<T, D>(sc.xt, tkp, x.k, x.ldk, Tk);
+  row_sums_nv<T>(int(tkp / L), sc.scores, tkp, x.q, x.ldq, 1, sc.xt, tkp, Tq, D, scale);  // S = scale Q K^T
   for (int64_t i = 0; i < Tq; ++i) {
     T* pr = p + i * Tk;
     const T* sr = sc.scores + i * tkp;
     softmax_row(pr, sr, m, causal ? i + 1 : Tk, Tk);  // a row without visible keys gives p = 0, so o = 0
   }
-  row_sums<T, D / L>(o, D, p, Tk, 1, v, D, Tq, Tk, (T)1);  // O = P V (hidden keys have p = 0)
+  row_sums<T, D / L>(o, x.ldo, p, Tk, 1, x.v, x.ldv, Tq, Tk, (T)1);  // O = P V (hidden keys have p = 0)
 }
 
 // head_backward for a head served by the register-blocked path.
 template <typename T, int D>
-void head_backward_blocked(T* dq, T* dk, T* dv, const T* g, const T* p, const T* q, const T* k, const T* v,
-                           int64_t Tq, int64_t Tk, int64_t tkp, T scale, HeadScratch<T>& sc) {
+void head_backward_blocked(const HeadGradRows<T>& gr, const HeadRows<T>& x, const T* p, int64_t Tq, int64_t Tk,
+                           int64_t tkp, T scale, HeadScratch<T>& sc) {
   constexpr int L = Vec<T>::L;
-  if (dv) row_sums<T, D / L>(dv, D, p, 1, Tk, g, D, Tk, Tq, (T)1);  // dV = P^T dO
-  if (!dq && !dk) return;
+  if (gr.dv) row_sums<T, D / L>(gr.dv, gr.ldv, p, 1, Tk, x.o, x.ldo, Tk, Tq, (T)1);  // dV = P^T dO
+  if (!gr.dq && !gr.dk) return;
   T* ds = sc.scores;
-  transpose_padded<T, D>(sc.xt, tkp, v, Tk);
-  row_sums_nv<T>(int(tkp / L), ds, tkp, g, D, 1, sc.xt, tkp, Tq, D, (T)1);  // dP = dO V^T
+  transpose_padded<T, D>(sc.xt, tkp, x.v, x.ldv, Tk);
+  row_sums_nv<T>(int(tkp / L), ds, tkp, x.o, x.ldo, 1, sc.xt, tkp, Tq, D, (T)1);  // dP = dO V^T
   for (int64_t i = 0; i < Tq; ++i) softmax_grad_row(ds + i * tkp, p + i * Tk, Tk, scale);
-  if (dq) row_sums<T, D / L>(dq, D, ds, tkp, 1, k, D, Tq, Tk, (T)1);  // dQ = dS K
-  if (dk) row_sums<T, D / L>(dk, D, ds, 1, tkp, q, D, Tk, Tq, (T)1);  // dK = dS^T Q
+  if (gr.dq) row_sums<T, D / L>(gr.dq, gr.ldq, ds, tkp, 1, x.k, x.ldk, Tq, Tk, (T)1);  // dQ = dS K
+  if (gr.dk) row_sums<T, D / L>(gr.dk, gr.ldk, ds, 1, tkp, x.q, x.ldq, Tk, Tq, (T)1);  // dK = dS^T Q
 }
 
 // Calls f.template operator()<D>() with D the compile-time head dim for the common sizes, else D = 0.
@@ -301,15 +326,15 @@ void small_forward_all(T* out, T* att, const T* q, const T* k, const T* v, const
       for (int64_t bh = 0; bh < BH; ++bh) {
         T* o = out + bh * Tq * d;
         T* p = att + bh * Tq * Tk;
-        const T *qh = q + bh * Tq * d, *kh = k + bh * Tk * d, *vh = v + bh * Tk * d;
+        const HeadRows<T> x{q + bh * Tq * d, k + bh * Tk * d, v + bh * Tk * d, o, d, d, d, d};
         const T* m = key_mask ? key_mask + (bh / s.H) * Tk : nullptr;
         if constexpr (D > 0) {
           if (tkp > 0) {
-            head_forward_blocked<T, D>(o, p, qh, kh, vh, m, Tq, Tk, tkp, s.causal, scale, sc);
+            head_forward_blocked<T, D>(o, x, p, m, Tq, Tk, tkp, s.causal, scale, sc);
             continue;
           }
         }
-        head_forward<T, D>(o, p, qh, kh, vh, m, Tq, Tk, d, s.causal, scale);
+        head_forward<T, D>(o, x, p, m, Tq, Tk, d, s.causal, scale);
       }
     }
   });
@@ -328,23 +353,164 @@ void small_backward_all(T* dq, T* dk, T* dv, const T* dout, const T* att, const 
       HeadScratch<T> sc;  // scores: dS of one head (Tq * Tk <= kSmallAttentionTile)
 #pragma omp for schedule(static)
       for (int64_t bh = 0; bh < BH; ++bh) {
-        T* dqh = dq ? dq + bh * Tq * d : nullptr;
-        T* dkh = dk ? dk + bh * Tk * d : nullptr;
-        T* dvh = dv ? dv + bh * Tk * d : nullptr;
-        const T *g = dout + bh * Tq * d, *p = att + bh * Tq * Tk;
-        const T* qh = q ? q + bh * Tq * d : nullptr;
-        const T* kh = k ? k + bh * Tk * d : nullptr;
-        const T* vh = v ? v + bh * Tk * d : nullptr;
+        const HeadGradRows<T> gr{dq ? dq + bh * Tq * d : nullptr, dk ? dk + bh * Tk * d : nullptr,
+                                 dv ? dv + bh * Tk * d : nullptr, d, d, d};
+        const HeadRows<T> x{q ? q + bh * Tq * d : nullptr, k ? k + bh * Tk * d : nullptr,
+                            v ? v + bh * Tk * d : nullptr, dout + bh * Tq * d, d, d, d, d};
+        const T* p = att + bh * Tq * Tk;
         if constexpr (D > 0) {
           if (tkp > 0) {
-            head_backward_blocked<T, D>(dqh, dkh, dvh, g, p, qh, kh, vh, Tq, Tk, tkp, scale, sc);
+            head_backward_blocked<T, D>(gr, x, p, Tq, Tk, tkp, scale, sc);
             continue;
           }
         }
-        head_backward<T, D>(dqh, dkh, dvh, g, p, qh, kh, vh, Tq, Tk, d, scale, sc.scores);
+        head_backward<T, D>(gr, x, p, Tq, Tk, d, scale, sc.scores);
       }
     }
   });
+}
+
+// q or k of one head as the attention sees it (attention_heads.h): n rows x (row stride ldx) -> y (n x d), RMS-norm
+// with weight w (rstd written to r when not null) and RoPE when the tables are given, else a copy.
+template <typename T>
+inline void qk_rows_forward(T* y, const T* x, int64_t ldx, int64_t n, int64_t d, const T* w, T eps, T* r,
+                            const T* cos_tab, const T* sin_tab) {
+  const int64_t h = d / 2;
+  for (int64_t t = 0; t < n; ++t) {
+    T* yt = y + t * d;
+    if (w) {
+      const T rt = rms_norm_row_forward(yt, x + t * ldx, w, d, eps);
+      if (r) r[t] = rt;
+    } else {
+      std::memcpy(yt, x + t * ldx, sizeof(T) * d);
+    }
+    if (cos_tab) rope_rotate_row(yt, yt, cos_tab + t * h, sin_tab + t * h, h, (T)1);
+  }
+}
+
+// The backward of qk_rows_forward: g (n x d, the gradient of y; overwritten) -> dx rows (row stride ldd; null: only
+// the weight gradient, through the spare row) and the weight gradient accumulated into pw (may be null).
+template <typename T>
+inline void qk_rows_backward(T* dx, int64_t ldd, T* pw, T* g, const T* x, int64_t ldx, int64_t n, int64_t d,
+                             const T* w, const T* rstd, const T* cos_tab, const T* sin_tab, T* spare) {
+  const int64_t h = d / 2;
+  for (int64_t t = 0; t < n; ++t) {
+    T* gt = g + t * d;
+    if (cos_tab) rope_rotate_row(gt, gt, cos_tab + t * h, sin_tab + t * h, h, (T)-1);
+    if (w)
+      rms_norm_row_backward(dx ? dx + t * ldd : spare, pw, gt, x + t * ldx, w, rstd[t], d);
+    else
+      std::memcpy(dx + t * ldd, gt, sizeof(T) * d);
+  }
+}
+
+// attention_heads_forward (attention_heads.h): heads split over threads whole, as small_forward_all.
+template <typename T>
+void small_heads_forward_all(T* out, int64_t ldo, T* att, T* rstd_q, T* rstd_k, const AttentionHeads<T>& a) {
+  const AttentionShape& s = a.s;
+  const int64_t H = s.H, BH = s.B * s.H, Tq = s.Tq, Tk = s.Tk, d = s.d;
+  const bool through_scratch = a.q_norm || a.cos_tab;  // q and k are transformed before the attention
+  const T scale = (T)(1.0 / std::sqrt((double)d));
+  const int nt = fused_threads(BH * Tq * Tk * d);
+  with_head_dim(d, [&]<int D>() {
+    const int64_t tkp = padded_keys<T, D>(Tq, Tk);
+#pragma omp parallel num_threads(nt) if (nt > 1)
+    {
+      HeadScratch<T> sc;
+      T* qs = through_scratch ? fused_scratch<T>(3, (Tq + Tk) * d) : nullptr;
+#pragma omp for schedule(static)
+      for (int64_t bh = 0; bh < BH; ++bh) {
+        const int64_t b = bh / H, h = bh % H;
+        T* o = out + b * Tq * ldo + h * d;
+        T* p = att + bh * Tq * Tk;
+        HeadRows<T> x{a.q + b * Tq * a.ldq + h * d, a.k + b * Tk * a.ldk + h * d, a.v + b * Tk * a.ldv + h * d, o,
+                      a.ldq, a.ldk, a.ldv, ldo};
+        if (through_scratch) {
+          T* ks = qs + Tq * d;
+          qk_rows_forward(qs, x.q, x.ldq, Tq, d, a.q_norm, a.norm_eps, rstd_q ? rstd_q + bh * Tq : nullptr,
+                          a.cos_tab, a.sin_tab);
+          qk_rows_forward(ks, x.k, x.ldk, Tk, d, a.k_norm, a.norm_eps, rstd_k ? rstd_k + bh * Tk : nullptr,
+                          a.cos_tab, a.sin_tab);
+          x.q = qs, x.k = ks, x.ldq = x.ldk = d;
+        }
+        const T* m = a.key_mask ? a.key_mask + b * Tk : nullptr;
+        if constexpr (D > 0) {
+          if (tkp > 0) {
+            head_forward_blocked<T, D>(o, x, p, m, Tq, Tk, tkp, s.causal, scale, sc);
+            continue;
+          }
+        }
+        head_forward<T, D>(o, x, p, m, Tq, Tk, d, s.causal, scale);
+      }
+    }
+  });
+}
+
+// attention_heads_backward: thread u takes the contiguous heads row_range(BH, u, nt), so its norm-weight partial
+// sums the rows rms_norm_backward's thread u would (for an even split), in the same order.
+template <typename T>
+void small_heads_backward_all(T* dq, int64_t lddq, T* dk, int64_t lddk, T* dv, int64_t lddv, T* dq_norm,
+                              T* dk_norm, const T* dout, int64_t ldg, const T* att, const T* rstd_q,
+                              const T* rstd_k, const AttentionHeads<T>& a) {
+  const AttentionShape& s = a.s;
+  const int64_t H = s.H, BH = s.B * s.H, Tq = s.Tq, Tk = s.Tk, d = s.d;
+  const bool norm = a.q_norm != nullptr, through_scratch = norm || a.cos_tab;
+  const bool need_dq = dq || (norm && dq_norm), need_dk = dk || (norm && dk_norm);
+  const T scale = (T)(1.0 / std::sqrt((double)d));
+  const int nt = fused_threads(BH * Tq * Tk * d);
+  T* partial = norm && (dq_norm || dk_norm) ? fused_scratch<T>(0, (int64_t)nt * 2 * d) : nullptr;  // [u][q | k]
+  if (partial) std::memset(partial, 0, sizeof(T) * nt * 2 * d);
+  with_head_dim(d, [&]<int D>() {
+    const int64_t tkp = padded_keys<T, D>(Tq, Tk);
+#pragma omp parallel num_threads(nt) if (nt > 1)
+    {
+      const int u = omp_get_thread_num();
+      const auto [h0, h1] = row_range(BH, u, omp_get_num_threads());
+      HeadScratch<T> sc;
+      T* qs = through_scratch ? fused_scratch<T>(3, (Tq + Tk) * d) : nullptr;  // q, k as the attention saw them
+      T* gs = through_scratch ? fused_scratch<T>(4, (Tq + Tk + 1) * d) : nullptr;  // their gradients, a spare row
+      T* pq = partial && dq_norm ? partial + (int64_t)u * 2 * d : nullptr;
+      T* pk = partial && dk_norm ? partial + (int64_t)u * 2 * d + d : nullptr;
+      for (int64_t bh = h0; bh < h1; ++bh) {
+        const int64_t b = bh / H, h = bh % H;
+        const T* qx = a.q + b * Tq * a.ldq + h * d;
+        const T* kx = a.k + b * Tk * a.ldk + h * d;
+        T* dqh = dq ? dq + b * Tq * lddq + h * d : nullptr;
+        T* dkh = dk ? dk + b * Tk * lddk + h * d : nullptr;
+        HeadRows<T> x{qx, kx, a.v + b * Tk * a.ldv + h * d, dout + b * Tq * ldg + h * d, a.ldq, a.ldk, a.ldv, ldg};
+        HeadGradRows<T> gr{dqh, dkh, dv ? dv + b * Tk * lddv + h * d : nullptr, lddq, lddk, lddv};
+        if (through_scratch) {
+          T* ks = qs + Tq * d;
+          qk_rows_forward(qs, qx, a.ldq, Tq, d, a.q_norm, a.norm_eps, (T*)nullptr, a.cos_tab, a.sin_tab);
+          qk_rows_forward(ks, kx, a.ldk, Tk, d, a.k_norm, a.norm_eps, (T*)nullptr, a.cos_tab, a.sin_tab);
+          x.q = qs, x.k = ks, x.ldq = x.ldk = d;
+          gr.dq = need_dq ? gs : nullptr, gr.dk = need_dk ? gs + Tq * d : nullptr, gr.ldq = gr.ldk = d;
+        }
+        const T* p = att + bh * Tq * Tk;
+        bool done = false;
+        if constexpr (D > 0) {
+          if (tkp > 0) {
+            head_backward_blocked<T, D>(gr, x, p, Tq, Tk, tkp, scale, sc);
+            done = true;
+          }
+        }
+        if (!done) head_backward<T, D>(gr, x, p, Tq, Tk, d, scale, sc.scores);
+        if (!through_scratch) continue;
+        T* spare = gs + (Tq + Tk) * d;
+        if (need_dq)
+          qk_rows_backward(dqh, lddq, pq, gr.dq, qx, a.ldq, Tq, d, a.q_norm,
+                           norm ? rstd_q + bh * Tq : nullptr, a.cos_tab, a.sin_tab, spare);
+        if (need_dk)
+          qk_rows_backward(dkh, lddk, pk, gr.dk, kx, a.ldk, Tk, d, a.k_norm,
+                           norm ? rstd_k + bh * Tk : nullptr, a.cos_tab, a.sin_tab, spare);
+      }
+    }
+  });
+  for (int u = 0; partial && u < nt; ++u)
+    for (int64_t c = 0; c < d; ++c) {
+      if (dq_norm) dq_norm[c] += partial[(int64_t)u * 2 * d + c];
+      if (dk_norm) dk_norm[c] += partial[(int64_t)u * 2 * d + d + c];
+    }
 }
 
 }  // namespace

@@ -17,4 +17,13 @@ template <typename T>
 void rms_norm_backward(T* dinp, T* dweight, const T* dout, const T* inp, const T* weight, const T* rstd, int64_t N,
                        int64_t C);
 
+
+// One row of each (the loops of the two above, for kernels that normalise rows they gather themselves, such as
+// attention_heads.h; the same compiled code, so the same bits). x, y, dy, dx (C); returns rstd. dweight (C)
+// accumulated (may be null).
+template <typename T>
+T rms_norm_row_forward(T* y, const T* x, const T* weight, int64_t C, T eps);
+template <typename T>
+void rms_norm_row_backward(T* dx, T* dweight, const T* dy, const T* x, const T* weight, T rstd, int64_t C);
+
 }  // namespace t2m::fused

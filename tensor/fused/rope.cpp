@@ -8,6 +8,15 @@
 
 namespace t2m::fused {
 
+template <typename T>
+void rope_rotate_row(T* y, const T* x, const T* c, const T* s, int64_t h, T sign) {
+  for (int64_t i = 0; i < h; ++i) {
+    const T x0 = x[i], x1 = x[i + h], si = sign * s[i];
+    y[i] = x0 * c[i] - x1 * si;
+    y[i + h] = x0 * si + x1 * c[i];
+  }
+}
+
 namespace {
 
 void check_rope(const char* op, int64_t N, int64_t Tlen, int64_t d) {
@@ -31,15 +40,7 @@ void rope_rotate(const char* op, T* out, const T* inp, const T* cos_tab, const T
 #pragma omp parallel for num_threads(nt) schedule(static) if (nt > 1)
   for (int64_t r = 0; r < N * Tlen; ++r) {
     const int64_t t = r % Tlen;
-    const T* x = inp + r * d;
-    T* y = out + r * d;
-    const T* c = cos_tab + t * h;
-    const T* s = sin_tab + t * h;
-    for (int64_t i = 0; i < h; ++i) {
-      const T x0 = x[i], x1 = x[i + h], si = sign * s[i];
-      y[i] = x0 * c[i] - x1 * si;
-      y[i + h] = x0 * si + x1 * c[i];
-    }
+    rope_rotate_row(out + r * d, inp + r * d, cos_tab + t * h, sin_tab + t * h, h, sign);
   }
 }
 
@@ -72,6 +73,8 @@ void rope_backward(T* dinp, const T* dout, const T* cos_tab, const T* sin_tab, i
   rope_rotate<T>("rope_backward", dinp, dout, cos_tab, sin_tab, N, Tlen, d, (T)-1);
 }
 
+template void rope_rotate_row<float>(float*, const float*, const float*, const float*, int64_t, float);
+template void rope_rotate_row<double>(double*, const double*, const double*, const double*, int64_t, double);
 template void rope_table<float>(float*, float*, int64_t, int64_t, double, int64_t);
 template void rope_table<double>(double*, double*, int64_t, int64_t, double, int64_t);
 template void rope_forward<float>(float*, const float*, const float*, const float*, int64_t, int64_t, int64_t);

@@ -21,4 +21,11 @@ void rope_forward(T* out, const T* inp, const T* cos_tab, const T* sin_tab, int6
 template <typename T>
 void rope_backward(T* dinp, const T* dout, const T* cos_tab, const T* sin_tab, int64_t N, int64_t Tlen, int64_t d);
 
+
+// One head vector (the loop of the two above, for kernels that rotate rows they gather themselves, such as
+// attention_heads.h): y (2h) = x rotated by the angles whose cos/sin are c/s (h), sign +1 forward, -1 backward.
+// y == x is allowed.
+template <typename T>
+void rope_rotate_row(T* y, const T* x, const T* c, const T* s, int64_t h, T sign);
+
 }  // namespace t2m::fused
