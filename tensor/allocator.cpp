@@ -3,12 +3,15 @@
 // Size classes: requests round up to a multiple of 64 bytes; above 512 bytes to the next of four steps per power
 // of two (1, 1.25, 1.5, 1.75 × 2^k), so at most 25% is wasted. A zero-byte request gets a 64-byte block (every
 // Storage has a valid, aligned pointer). bytes_in_use / bytes_cached count class sizes, not requested sizes.
+// Classes from 256 KB up to 2 MB are carved one after the other from 32 MB arenas marked for huge pages (a block of
+// its own would need a whole 2 MB page each, or get 4 KB pages); a carve counts as a trip to the OS.
 #include "tensor/allocator.h"
 
 #include <sys/mman.h>
 
 #include <cstdint>
 #include <cstdlib>
+#include <iterator>
 #include <mutex>
 #include <string>
 #include <unordered_map>
@@ -31,9 +34,19 @@ size_t size_class(size_t n) {
   return (c + kAlign - 1) / kAlign * kAlign;
 }
 
+constexpr size_t kHugePage = size_t(2) << 20;
+constexpr size_t kArenaMinClass = size_t(256) << 10;
+constexpr size_t kArenaBytes = size_t(32) << 20;
+
+struct Arena {
+  char* base;
+  size_t carved;  // bytes handed out from base, in order
+};
+
 struct Cache {
   std::mutex mu;
   std::unordered_map<size_t, std::vector<void*>> free_lists;
+  std::vector<Arena> arenas;  // the last one is carved from
   AllocatorStats stats;
 };
 
@@ -42,20 +55,64 @@ Cache& cache() {
   return *c;
 }
 
-// Frees every cached block; caller holds the lock.
-void release_locked(Cache& c) {
-  for (auto& [sz, list] : c.free_lists) {
-    for (void* p : list) std::free(p);
-    list.clear();
+int arena_of(const Cache& c, const void* p) {
+  for (size_t i = 0; i < c.arenas.size(); ++i)
+    if (p >= c.arenas[i].base && p < c.arenas[i].base + kArenaBytes) return int(i);
+  return -1;
+}
+
+// A new block of class cls from the current arena (a new arena when it is full); nullptr when out of memory.
+void* carve(Cache& c, size_t cls) {
+  if (c.arenas.empty() || c.arenas.back().carved + cls > kArenaBytes) {
+    void* a = aligned_alloc_pages(kArenaBytes, kHugePage);
+    if (!a) return nullptr;
+    c.arenas.push_back(Arena{static_cast<char*>(a), 0});
   }
-  c.free_lists.clear();
+  Arena& a = c.arenas.back();
+  void* p = a.base + a.carved;
+  a.carved += cls;
+  return p;
+}
+
+// Frees every cached block, and every arena whose blocks are all cached; the cached blocks of an arena with a block
+// still in use stay cached. Caller holds the lock.
+void release_locked(Cache& c) {
+  std::vector<size_t> cached(c.arenas.size(), 0);
+  for (auto& [sz, list] : c.free_lists)
+    for (void* p : list) {
+      const int a = arena_of(c, p);
+      if (a < 0)
+        std::free(p);
+      else
+        cached[a] += sz;
+    }
+  std::vector<bool> gone(c.arenas.size());
+  for (size_t i = 0; i < c.arenas.size(); ++i) gone[i] = cached[i] == c.arenas[i].carved;
   c.stats.bytes_cached = 0;
+  for (auto it = c.free_lists.begin(); it != c.free_lists.end();) {
+    std::vector<void*> kept;
+    for (void* p : it->second) {
+      const int a = arena_of(c, p);
+      if (a >= 0 && !gone[a]) kept.push_back(p);
+    }
+    c.stats.bytes_cached += kept.size() * it->first;
+    it->second.swap(kept);
+    it = it->second.empty() ? c.free_lists.erase(it) : std::next(it);
+  }
+  std::vector<Arena> live;
+  for (size_t i = 0; i < c.arenas.size(); ++i) {
+    if (gone[i])
+      std::free(c.arenas[i].base);
+    else
+      live.push_back(c.arenas[i]);
+  }
+  c.arenas.swap(live);
 }
 
 }  // namespace
 
 void* aligned_alloc_pages(size_t nbytes, size_t align) {
-  constexpr size_t kHuge = size_t(2) << 20;
+  constexpr size_t kHuge = kHugePage;
   const size_t a = nbytes < kHuge ? align : kHuge;
   void* p = nullptr;
   if (posix_memalign(&p, a, nbytes == 0 ? a : nbytes) != 0) return nullptr;
@@ -77,10 +134,13 @@ void* cached_alloc(size_t nbytes) {
     it->second.pop_back();
     c.stats.bytes_cached -= cls;
   } else {
-    p = aligned_alloc_pages(cls, kAlign);
+    auto fresh = [&] {
+      return cls >= kArenaMinClass && cls < kHugePage ? carve(c, cls) : aligned_alloc_pages(cls, kAlign);
+    };
+    p = fresh();
     if (!p) {  // out of memory: give the cache back to the OS and try once more
       release_locked(c);
-      p = aligned_alloc_pages(cls, kAlign);
+      p = fresh();
     }
     if (!p) throw Error("cached_alloc: out of memory allocating " + std::to_string(nbytes) + " bytes");
     ++c.stats.os_allocs;

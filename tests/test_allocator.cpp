@@ -1,5 +1,5 @@
-// test_allocator.cpp — caching allocator: reuse (cache hits), stats, alignment (huge-page blocks), release,
-// thread safety.
+// test_allocator.cpp — caching allocator: reuse (cache hits), stats, alignment (huge-page blocks), huge-page arenas
+// for medium blocks, release, thread safety.
 #include <gtest/gtest.h>
 
 #include <cstdint>
@@ -127,4 +127,34 @@ TEST(Allocator, LargeBlocksAreHugePageAligned) {
   void* q = cached_alloc(n);
   EXPECT_EQ(reinterpret_cast<uintptr_t>(q) % (size_t(2) << 20), 0u);
   cached_free(q, n);
+}
+
+TEST(Allocator, MediumBlocksShareHugePageArenas) {
+  // Classes from 256 KB to 2 MB are carved in order from a 2 MB aligned arena; release frees an arena only when all
+  // its blocks are free, and keeps the free blocks of an arena still in use cached (and reusable).
+  allocator_release_cache();
+  const size_t mb = size_t(1) << 20;
+  char* a = static_cast<char*>(cached_alloc(mb));
+  char* b = static_cast<char*>(cached_alloc(mb));
+  EXPECT_EQ(reinterpret_cast<uintptr_t>(a) % (2 * mb), 0u);  // a fresh arena starts on a huge page
+  EXPECT_EQ(b, a + mb);
+  a[0] = 1, a[mb - 1] = 2, b[0] = 3, b[mb - 1] = 4;
+  EXPECT_EQ(a[0] + a[mb - 1] + b[0] + b[mb - 1], 10);
+  void* small = cached_alloc(4096);  // below 256 KB: not from the arena
+  EXPECT_TRUE(static_cast<char*>(small) < a || static_cast<char*>(small) >= a + (32 * mb));
+  cached_free(small, 4096);
+  cached_free(b, mb);
+  allocator_release_cache();  // a is in use: b stays cached
+  const AllocatorStats s1 = allocator_stats();
+  EXPECT_EQ(s1.bytes_cached, mb);
+  void* b2 = cached_alloc(mb);
+  EXPECT_EQ(b2, b);
+  EXPECT_EQ(allocator_stats().os_allocs, s1.os_allocs);  // a cache hit
+  cached_free(b2, mb);
+  cached_free(a, mb);
+  allocator_release_cache();  // every block of the arena is free: it goes back
+  EXPECT_EQ(allocator_stats().bytes_cached, 0u);
+  void* c = cached_alloc(mb);
+  EXPECT_EQ(allocator_stats().os_allocs, s1.os_allocs + 1);
+  cached_free(c, mb);
 }
