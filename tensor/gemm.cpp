@@ -15,6 +15,7 @@
 #include <tuple>
 
 #include "tensor/allocator.h"
+#include "tensor/cpu_features.h"
 #include "tensor/gemm_kernel.h"
 #include "tensor/parallel.h"
 #include "tensor/tensor.h"
@@ -78,15 +79,6 @@ thread_local PackBuffer tls_pack_a, tls_pack_b, tls_small;
 enum KernelId : int { kAuto = 0, kAvx512 = 1, kAvx2 = 2 };
 std::atomic<int> g_forced_kernel{kAuto};
 
-bool cpu_has_avx512() {
-  static const bool has = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
-                          __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl");
-  return has;
-}
-bool cpu_has_avx2() {
-  static const bool has = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-  return has;
-}
 KernelId chosen_kernel() {
   const int f = g_forced_kernel.load(std::memory_order_relaxed);
   if (f != kAuto) return KernelId(f);

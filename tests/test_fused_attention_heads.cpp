@@ -9,6 +9,7 @@
 
 #include <string>
 
+#include "tensor/cpu_features.h"
 #include "tensor/fused/attention.h"
 #include "tensor/fused/attention_heads.h"
 #include "tensor/fused/attention_small.h"
@@ -218,9 +219,9 @@ TEST_P(AttentionHeadsCases, SameBitsAsTheUnfusedKernels) {
   ASSERT_TRUE(attention_heads_eligible(make<float>(c).s));
   expect_matches_reference<float>(c, "float");
   expect_matches_reference<double>(c, "double");
-  attention_small_force_baseline(true);  // the AVX2 build of the same loops
+  t2m::force_baseline_isa(true);  // the AVX2 build of the same loops
   expect_matches_reference<float>(c, "baseline float");
-  attention_small_force_baseline(false);
+  t2m::force_baseline_isa(false);
 }
 
 TEST_P(AttentionHeadsCases, GradientSubsets) {

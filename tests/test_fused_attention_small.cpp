@@ -8,6 +8,7 @@
 
 #include <cmath>
 
+#include "tensor/cpu_features.h"
 #include "tensor/fused/attention.h"
 #include "tensor/fused/attention_small.h"
 #include "tensor/parallel.h"
@@ -92,10 +93,10 @@ TEST_P(AttentionPaths, SmallAndGemmPathsAgree) {
   const AttnRun only_q = run<double>("small", s, q, k, v, g, mp, true, false, false);
   expect_close(only_q.dq, a.dq, 0, 0, "dq alone");
   // the baseline (AVX2) build of the same loops: other vector widths, so other padded key counts
-  attention_small_force_baseline(true);
+  t2m::force_baseline_isa(true);
   const AttnRun base = run<double>("small", s, q, k, v, g, mp);
   const AttnRun base_f = run<float>("small", s, q, k, v, g, mp);
-  attention_small_force_baseline(false);
+  t2m::force_baseline_isa(false);
   expect_close(base.out, b.out, 1e-13, 1e-12, "baseline out");
   expect_close(base.att, b.att, 1e-14, 1e-12, "baseline att");
   expect_close(base.dq, b.dq, 1e-13, 1e-12, "baseline dq");

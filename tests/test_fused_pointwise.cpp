@@ -5,6 +5,7 @@
 
 #include <cmath>
 
+#include "tensor/cpu_features.h"
 #include "tensor/fused/fast_exp.h"
 #include "tensor/fused/gelu_tanh.h"
 #include "tensor/fused/rope.h"
@@ -121,6 +122,23 @@ TEST(GeluTanh, ForwardBackward) {
   std::vector<float> v = {-1.0f, 0.5f, 2.0f};
   gelu_tanh_forward<float>(v.data(), v.data(), 3);
   EXPECT_NEAR(v[2], ref_gelu(2.0), 1e-6);
+}
+
+TEST(GeluTanh, BaselineAndAvx512BuildsGiveTheSameBits) {
+  // Elementwise: the AVX-512 build only has more lanes, so every value rounds the same way (on a CPU without
+  // AVX-512 both runs take the baseline build).
+  const int64_t n = 100003;
+  const auto x = to_float(randn(n, 113, 3.0)), R = to_float(randn(n, 114));
+  std::vector<float> y[2], dx[2];
+  for (int b = 0; b < 2; ++b) {
+    t2m::force_baseline_isa(b == 1);
+    y[b].resize(n), dx[b].resize(n);
+    gelu_tanh_forward<float>(y[b].data(), x.data(), n);
+    gelu_tanh_backward<float>(dx[b].data(), R.data(), x.data(), n);
+  }
+  t2m::force_baseline_isa(false);
+  EXPECT_TRUE(bitwise_equal(y[0], y[1]));
+  EXPECT_TRUE(bitwise_equal(dx[0], dx[1]));
 }
 
 TEST(Rope, ForwardMatchesDirectRotationAndBackwardIsTranspose) {

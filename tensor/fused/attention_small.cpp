@@ -3,45 +3,30 @@
 #pragma GCC optimize("no-trapping-math")
 #include "tensor/fused/attention_small.h"
 
-#include <atomic>
-
+#include "tensor/cpu_features.h"
 #include "tensor/fused/attention_small_kernels.h"
 
 namespace t2m::fused {
-
-namespace {
-
-std::atomic<bool> g_force_baseline{false};
-
-bool have_avx512() {
-  static const bool yes = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
-                          __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl");
-  return yes && !g_force_baseline.load(std::memory_order_relaxed);
-}
-
-}  // namespace
-
-void attention_small_force_baseline(bool on) { g_force_baseline.store(on); }
 
 bool attention_small_eligible(const AttentionShape& s) { return s.Tq * s.Tk <= kSmallAttentionTile && s.d <= 256; }
 
 template <typename T>
 void attention_small_forward(T* out, T* att, const T* q, const T* k, const T* v, const T* key_mask,
                              const AttentionShape& s) {
-  if (have_avx512()) return attention_small_forward_avx512(out, att, q, k, v, key_mask, s);
+  if (use_avx512_kernels()) return attention_small_forward_avx512(out, att, q, k, v, key_mask, s);
   small_forward_all(out, att, q, k, v, key_mask, s);
 }
 
 template <typename T>
 void attention_small_backward(T* dq, T* dk, T* dv, const T* dout, const T* att, const T* q, const T* k, const T* v,
                               const AttentionShape& s) {
-  if (have_avx512()) return attention_small_backward_avx512(dq, dk, dv, dout, att, q, k, v, s);
+  if (use_avx512_kernels()) return attention_small_backward_avx512(dq, dk, dv, dout, att, q, k, v, s);
   small_backward_all(dq, dk, dv, dout, att, q, k, v, s);
 }
 
 template <typename T>
 void attention_small_heads_forward(T* out, int64_t ldo, T* att, T* rstd_q, T* rstd_k, const AttentionHeads<T>& a) {
-  if (have_avx512()) return attention_small_heads_forward_avx512(out, ldo, att, rstd_q, rstd_k, a);
+  if (use_avx512_kernels()) return attention_small_heads_forward_avx512(out, ldo, att, rstd_q, rstd_k, a);
   small_heads_forward_all(out, ldo, att, rstd_q, rstd_k, a);
 }
 
@@ -49,7 +34,7 @@ template <typename T>
 void attention_small_heads_backward(T* dq, int64_t lddq, T* dk, int64_t lddk, T* dv, int64_t lddv, T* dq_norm,
                                     T* dk_norm, const T* dout, int64_t ldg, const T* att, const T* rstd_q,
                                     const T* rstd_k, const AttentionHeads<T>& a) {
-  if (have_avx512())
+  if (use_avx512_kernels())
     return attention_small_heads_backward_avx512(dq, lddq, dk, lddk, dv, lddv, dq_norm, dk_norm, dout, ldg, att,
                                                  rstd_q, rstd_k, a);
   small_heads_backward_all(dq, lddq, dk, lddk, dv, lddv, dq_norm, dk_norm, dout, ldg, att, rstd_q, rstd_k, a);

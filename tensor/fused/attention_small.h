@@ -36,10 +36,6 @@ void attention_small_heads_backward(T* dq, int64_t lddq, T* dk, int64_t lddk, T*
                                     T* dk_norm, const T* dout, int64_t ldg, const T* att, const T* rstd_q,
                                     const T* rstd_k, const AttentionHeads<T>& a);
 
-// Tests: run the baseline (AVX2) build of the loops even on a CPU with AVX-512 (true), or choose by the CPU again
-// (false, the default).
-void attention_small_force_baseline(bool on);
-
 // The same loops compiled with AVX-512 (attention_small_avx512.cpp); call only where the CPU supports it.
 template <typename T>
 void attention_small_forward_avx512(T* out, T* att, const T* q, const T* k, const T* v, const T* key_mask,

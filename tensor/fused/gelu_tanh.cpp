@@ -1,4 +1,5 @@
-// gelu_tanh.cpp — with u = s (x + a x^3), t = tanh(u): dy/dx = 0.5 (1 + t) + 0.5 x (1 - t^2) s (1 + 3 a x^2).
+// gelu_tanh.cpp — argument checks and the thread split; each thread's chunk runs the AVX-512 build of the loops
+// (gelu_tanh_avx512.cpp) where the CPU has it, else the baseline build (gelu_tanh_kernels.h, compiled here).
 // Comparisons in the clamps of exp_approx may not be if-converted (vectorised) under the default -ftrapping-math;
 // no kernel here reads the floating-point exception flags, so trapping semantics are dropped for this file.
 #pragma GCC optimize("no-trapping-math")
@@ -6,38 +7,24 @@
 
 #include <omp.h>
 
-#include "tensor/fused/fast_exp.h"
+#include "tensor/cpu_features.h"
+#include "tensor/fused/gelu_tanh_kernels.h"
 #include "tensor/fused/kernel_util.h"
 
 namespace t2m::fused {
 
 namespace {
-constexpr double kSqrt2OverPi = 0.79788456080286535588;
-constexpr double kGeluA = 0.044715;
 
-// One thread's contiguous chunk; a plain loop (no OpenMP construct) so that the float version vectorises.
 template <typename T>
-void gelu_forward_chunk(T* out, const T* inp, int64_t n) {
-  const T s = (T)kSqrt2OverPi, a = (T)kGeluA;
-#pragma omp simd
-  for (int64_t i = 0; i < n; ++i) {
-    const T x = inp[i];
-    const T t = ftanh(s * (x + a * x * x * x));
-    out[i] = (T)0.5 * x * ((T)1 + t);
-  }
+void forward_chunk(T* out, const T* inp, int64_t n) {
+  if (use_avx512_kernels()) return gelu_forward_chunk_avx512(out, inp, n);
+  gelu_forward_chunk(out, inp, n);
 }
 
 template <typename T>
-void gelu_backward_chunk(T* dinp, const T* dout, const T* inp, int64_t n) {
-  const T s = (T)kSqrt2OverPi, a = (T)kGeluA;
-#pragma omp simd
-  for (int64_t i = 0; i < n; ++i) {
-    const T x = inp[i];
-    const T x2 = x * x;
-    const T t = ftanh(s * (x + a * x2 * x));
-    const T d = (T)0.5 * ((T)1 + t) + (T)0.5 * x * ((T)1 - t * t) * s * ((T)1 + (T)3 * a * x2);
-    dinp[i] = dout[i] * d;
-  }
+void backward_chunk(T* dinp, const T* dout, const T* inp, int64_t n) {
+  if (use_avx512_kernels()) return gelu_backward_chunk_avx512(dinp, dout, inp, n);
+  gelu_backward_chunk(dinp, dout, inp, n);
 }
 
 }  // namespace
@@ -49,11 +36,11 @@ void gelu_tanh_forward(T* out, const T* inp, int64_t n) {
   check_ptr("gelu_tanh_forward", "out", out);
   check_ptr("gelu_tanh_forward", "inp", inp);
   const int nt = fused_threads(n);
-  if (nt == 1) return gelu_forward_chunk(out, inp, n);
+  if (nt == 1) return forward_chunk(out, inp, n);
 #pragma omp parallel num_threads(nt)
   {
     const auto [i0, i1] = row_range(n, omp_get_thread_num(), omp_get_num_threads());
-    gelu_forward_chunk(out + i0, inp + i0, i1 - i0);
+    forward_chunk(out + i0, inp + i0, i1 - i0);
   }
 }
 
@@ -65,11 +52,11 @@ void gelu_tanh_backward(T* dinp, const T* dout, const T* inp, int64_t n) {
   check_ptr("gelu_tanh_backward", "dout", dout);
   check_ptr("gelu_tanh_backward", "inp", inp);
   const int nt = fused_threads(n);
-  if (nt == 1) return gelu_backward_chunk(dinp, dout, inp, n);
+  if (nt == 1) return backward_chunk(dinp, dout, inp, n);
 #pragma omp parallel num_threads(nt)
   {
     const auto [i0, i1] = row_range(n, omp_get_thread_num(), omp_get_num_threads());
-    gelu_backward_chunk(dinp + i0, dout + i0, inp + i0, i1 - i0);
+    backward_chunk(dinp + i0, dout + i0, inp + i0, i1 - i0);
   }
 }
 
