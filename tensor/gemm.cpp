@@ -265,7 +265,14 @@ void macro_kernel(const MicroKernel<T>& uk, int64_t mc, int64_t nc, int64_t kc, 
 // seconds at a time, and a static split makes the faster one wait at every barrier).
 struct alignas(64) StealRange {
   std::atomic<uint64_t> fb{0};
+  std::atomic<int64_t> round{-1};  // the round whose items fb holds (split by columns: published without a barrier)
   void reset(int64_t n) { fb.store(uint64_t(n) << 32, std::memory_order_relaxed); }
+  // After reset and after packing what the items read: a thief that sees `r` also sees both.
+  void publish(int64_t r) { round.store(r, std::memory_order_release); }
+  void wait_for(int64_t r) const {
+    while (round.load(std::memory_order_acquire) != r) {
+    }
+  }
   // Front item (owner) or back item (thief), -1 when none is left.
   int64_t take(bool back) {
     uint64_t cur = fb.load(std::memory_order_relaxed);
@@ -282,21 +289,28 @@ struct alignas(64) StealRange {
 // Threads split C by rows (each packs its own A blocks; the B block is packed once, cooperatively, and shared;
 // once a thread's rows are done it steals B panels of the others' rows, packing their A block itself) or, when M
 // is at most 1024 rows or too short for a row split, by columns (each packs its own B panels and the whole A
-// block). Every C tile is computed by one kernel call per K block from the same packed data whichever thread
-// takes it, so stealing does not change a bit of the result.
+// block; once its columns are done it steals (row block, B panel) items of the others' columns, reading their
+// packed B and packing the A block itself). Every C tile is computed by one kernel call per K block from the same
+// packed data whichever thread takes it, so stealing does not change a bit of the result.
 template <typename T>
 void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
   const int64_t mr = uk.mr, nr = uk.nr, MC = uk.mc, KC = uk.kc, NC = uk.nc;
   const int64_t m_tiles = ceil_div(g.M, mr), n_tiles = ceil_div(g.N, nr);
   nt = int(std::max<int64_t>(1, std::min<int64_t>(nt, std::max(m_tiles, n_tiles))));
   // Up to 1024 rows, with enough B panels for every thread, split by columns: each thread packs its own B panels
-  // and the whole A block, with no barrier. On the AMD host this ran the fm-paper shapes (512-768 rows) 6-12 %
-  // faster on 2 threads than the shared-B row split (`t2m bench --threads 2 --shapes 512x2048x512,...`), and
-  // 4096x512x512 5 % slower, hence the row limit.
+  // and the whole A block. On the AMD host this ran the fm-paper shapes (512-768 rows) 6-12 % faster on 2 threads
+  // than the shared-B row split (`t2m bench --threads 2 --shapes 512x2048x512,...`), and 4096x512x512 5 % slower,
+  // hence the row limit.
   const bool split_n = nt > 1 && g.M <= 1024 && n_tiles >= 4 * nt;
   const bool split_m = !split_n && (nt == 1 || m_tiles >= 4 * nt || m_tiles >= n_tiles);
+  // Stealing between column shares needs the same rounds (K blocks) in every thread: each share in one NC block.
+  const bool steal_n = split_n && ceil_div(n_tiles, nt) * nr <= NC;
   T* shared_bp = split_m ? tls_pack_b.get<T>(KC * round_up(std::min(NC, g.N), nr)) : nullptr;
-  std::unique_ptr<StealRange[]> ranges(split_m && nt > 1 ? new StealRange[nt] : nullptr);
+  std::unique_ptr<StealRange[]> ranges((split_m || steal_n) && nt > 1 ? new StealRange[nt] : nullptr);
+  std::unique_ptr<T*[]> own_bp(steal_n ? new T*[nt] : nullptr);  // each thread's packed B (split by columns)
+  auto cols_of = [&](int u, int team) {  // thread u's share of the columns (split by columns)
+    return std::make_pair(std::min(g.N, n_tiles * u / team * nr), std::min(g.N, n_tiles * (u + 1) / team * nr));
+  };
 #pragma omp parallel num_threads(nt) if (nt > 1)
   {
     const int t = omp_get_thread_num(), team = omp_get_num_threads();
@@ -304,17 +318,17 @@ void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
       return std::make_pair(std::min(g.M, m_tiles * u / team * mr), std::min(g.M, m_tiles * (u + 1) / team * mr));
     };
     int64_t m0 = 0, m1 = g.M, n0 = 0, n1 = g.N;
-    if (split_m) {
+    if (split_m)
       std::tie(m0, m1) = rows_of(t);
-    } else {
-      n0 = std::min(g.N, n_tiles * t / team * nr);
-      n1 = std::min(g.N, n_tiles * (t + 1) / team * nr);
-    }
+    else
+      std::tie(n0, n1) = cols_of(t, team);
     T* ap = tls_pack_a.get<T>(round_up(std::min(MC, std::max<int64_t>(split_m ? g.M : m1 - m0, 1)), mr) * KC);
     T* bp = split_m ? shared_bp : tls_pack_b.get<T>(KC * round_up(std::min(NC, std::max<int64_t>(n1 - n0, 1)), nr));
+    if (own_bp) own_bp[t] = bp;  // published with the first round's items
+    int64_t round = 0;
     for (int64_t jc = n0; jc < n1; jc += NC) {
       const int64_t nc = std::min(NC, n1 - jc);
-      for (int64_t pc = 0; pc < g.K; pc += KC) {
+      for (int64_t pc = 0; pc < g.K; pc += KC, ++round) {
         const int64_t kc = std::min(KC, g.K - pc);
         const T beta = pc == 0 ? g.beta : T(1);
         const T* bias = pc == 0 && g.bias ? g.bias + jc : nullptr;  // the bias joins in the first K block
@@ -327,16 +341,20 @@ void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
 #pragma omp barrier
         } else {
           uk.pack_b(g.tb, kc, nc, g.b_at(pc, jc), g.ldb, bp);
+          if (ranges) {
+            ranges[t].reset(ceil_div(m1 - m0, MC) * panels);
+            ranges[t].publish(round);
+          }
         }
-        // Item i of thread u: row block i / panels of u's rows, B panel i % panels. Own items first, then steal.
-        if (!ranges) {  // one thread, or split by columns: this thread's rows in order
+        if (!ranges) {  // one thread, or split by columns without stealing: this thread's rows in order
           for (int64_t ic = m0; ic < m1; ic += MC) {
             const int64_t mc = std::min(MC, m1 - ic);
             uk.pack_a(g.ta, mc, kc, g.a_at(ic, pc), g.lda, ap);
             macro_kernel(uk, mc, nc, kc, ap, bp, g.C + ic * g.ldc + jc, g.ldc, g.alpha, beta, bias);
           }
-        } else {
-          int64_t packed_ic = -1;  // first row of the block whose A is in ap
+        } else if (split_m) {
+          // Item i of thread u: row block i / panels of u's rows, B panel i % panels. Own items first, then steal.
+          int64_t packed_ic = -1;  // first row block whose A is in ap
           for (int k = 0; k < team; ++k) {
             const int u = (t + k) % team;
             const int64_t r0 = rows_of(u).first, r1 = rows_of(u).second;
@@ -350,10 +368,32 @@ void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
                            g.C + ic * g.ldc + jc + p * nr, g.ldc, g.alpha, beta, bias ? bias + p * nr : nullptr);
             }
           }
+        } else {
+          // Item i of thread u: row block i / panels_u (all rows), panel i % panels_u of u's columns, read from
+          // u's packed B. Own items first, then steal (from the back: the last row block, whose A is usually the
+          // one this thread packed last).
+          int64_t packed_ic = -1;
+          for (int k = 0; k < team; ++k) {
+            const int u = (t + k) % team;
+            const int64_t c0 = cols_of(u, team).first, ncu = cols_of(u, team).second - c0;
+            const int64_t pu = ceil_div(ncu, nr);
+            if (k != 0) ranges[u].wait_for(round);
+            const T* bu = k == 0 ? bp : own_bp[u];
+            const T* bias_u = pc == 0 && g.bias ? g.bias + c0 : nullptr;
+            for (int64_t item; (item = ranges[u].take(k != 0)) >= 0;) {
+              const int64_t ic = item / pu * MC, mc = std::min(MC, g.M - ic), p = item % pu;
+              if (ic != packed_ic) {
+                uk.pack_a(g.ta, mc, kc, g.a_at(ic, pc), g.lda, ap);
+                packed_ic = ic;
+              }
+              macro_kernel(uk, mc, std::min(nr, ncu - p * nr), kc, ap, bu + p * kc * nr, g.C + ic * g.ldc + c0 + p * nr,
+                           g.ldc, g.alpha, beta, bias_u ? bias_u + p * nr : nullptr);
+            }
+          }
         }
-        // The shared B block is re-packed next round: wait until everyone is done with it (the region's closing
-        // barrier covers the last round).
-        if (split_m && (jc + nc < n1 || pc + kc < g.K)) {
+        // The shared B block (split_m), or the B blocks others may still read (stealing), are re-packed next
+        // round: wait until everyone is done with them (the region's closing barrier covers the last round).
+        if (ranges && (jc + nc < n1 || pc + kc < g.K)) {
 #pragma omp barrier
         }
       }

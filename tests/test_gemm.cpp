@@ -297,7 +297,10 @@ TEST(Gemm, ThreadCountsGiveIdenticalResults) {
   const int saved = t2m::get_num_threads();
   struct Shape3 { int64_t M, N, K; };
   for_each_kernel([] {
-    for (const Shape3 s : {Shape3{300, 200, 600}, Shape3{40, 900, 70}, Shape3{513, 33, 64}, Shape3{256, 1024, 256}}) {
+    // split by rows (300x200), by columns with one K block (40x900, 256x1024) and three (200x700x1300: the
+    // stealing threads meet after each block), one thread's share (513x33)
+    for (const Shape3 s : {Shape3{300, 200, 600}, Shape3{40, 900, 70}, Shape3{513, 33, 64}, Shape3{256, 1024, 256},
+                           Shape3{200, 700, 1300}}) {
       for (int t = 0; t < 4; ++t) {
         const bool ta = t & 1, tb = t & 2;
         std::mt19937 rng(11);
@@ -305,11 +308,18 @@ TEST(Gemm, ThreadCountsGiveIdenticalResults) {
         std::vector<float> A(size_t(s.M * s.K)), B(size_t(s.K * s.N));
         for (auto& v : A) v = u(rng);
         for (auto& v : B) v = u(rng);
+        std::vector<float> bias(size_t(s.N));
+        for (auto& v : bias) v = u(rng);
         std::vector<std::vector<float>> out;
         for (int threads : {1, 2, 2, 2, 2}) {
           t2m::set_num_threads(threads);
           std::vector<float> C(size_t(s.M * s.N), std::numeric_limits<float>::quiet_NaN());
-          gemm(ta, tb, s.M, s.N, s.K, 1.0f, A.data(), ta ? s.M : s.K, B.data(), tb ? s.K : s.N, 0.0f, C.data(), s.N);
+          if (t == 3)  // with a bias (it joins in the first K block)
+            t2m::gemm_bias(ta, tb, s.M, s.N, s.K, 1.0f, A.data(), ta ? s.M : s.K, B.data(), tb ? s.K : s.N, bias.data(),
+                      C.data(), s.N);
+          else
+            gemm(ta, tb, s.M, s.N, s.K, 1.0f, A.data(), ta ? s.M : s.K, B.data(), tb ? s.K : s.N, 0.0f, C.data(),
+                 s.N);
           out.push_back(std::move(C));
         }
         for (size_t r = 2; r < out.size(); ++r)
