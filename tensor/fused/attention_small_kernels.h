@@ -299,6 +299,24 @@ void head_backward_blocked(const HeadGradRows<T>& gr, const HeadRows<T>& x, cons
   if (gr.dk) row_sums<T, D / L>(gr.dk, gr.ldk, ds, 1, tkp, x.q, x.ldq, Tk, Tq, (T)1);  // dK = dS^T Q
 }
 
+// One head on the register-blocked path when it serves it (tkp > 0), else on the dot/axpy loops.
+template <typename T, int D>
+void head_forward_any(T* o, const HeadRows<T>& x, T* p, const T* m, int64_t Tq, int64_t Tk, int64_t d, int64_t tkp,
+                      bool causal, T scale, HeadScratch<T>& sc) {
+  if constexpr (D > 0) {
+    if (tkp > 0) return head_forward_blocked<T, D>(o, x, p, m, Tq, Tk, tkp, causal, scale, sc);
+  }
+  head_forward<T, D>(o, x, p, m, Tq, Tk, d, causal, scale);
+}
+template <typename T, int D>
+void head_backward_any(const HeadGradRows<T>& gr, const HeadRows<T>& x, const T* p, int64_t Tq, int64_t Tk, int64_t d,
+                       int64_t tkp, T scale, HeadScratch<T>& sc) {
+  if constexpr (D > 0) {
+    if (tkp > 0) return head_backward_blocked<T, D>(gr, x, p, Tq, Tk, tkp, scale, sc);
+  }
+  head_backward<T, D>(gr, x, p, Tq, Tk, d, scale, sc.scores);
+}
+
 // Calls f.template operator()<D>() with D the compile-time head dim for the common sizes, else D = 0.
 template <typename F>
 inline void with_head_dim(int64_t d, F&& f) {
@@ -328,13 +346,7 @@ void small_forward_all(T* out, T* att, const T* q, const T* k, const T* v, const
         T* p = att + bh * Tq * Tk;
         const HeadRows<T> x{q + bh * Tq * d, k + bh * Tk * d, v + bh * Tk * d, o, d, d, d, d};
         const T* m = key_mask ? key_mask + (bh / s.H) * Tk : nullptr;
-        if constexpr (D > 0) {
-          if (tkp > 0) {
-            head_forward_blocked<T, D>(o, x, p, m, Tq, Tk, tkp, s.causal, scale, sc);
-            continue;
-          }
-        }
-        head_forward<T, D>(o, x, p, m, Tq, Tk, d, s.causal, scale);
+        head_forward_any<T, D>(o, x, p, m, Tq, Tk, d, tkp, s.causal, scale, sc);
       }
     }
   });
@@ -358,13 +370,7 @@ void small_backward_all(T* dq, T* dk, T* dv, const T* dout, const T* att, const 
         const HeadRows<T> x{q ? q + bh * Tq * d : nullptr, k ? k + bh * Tk * d : nullptr,
                             v ? v + bh * Tk * d : nullptr, dout + bh * Tq * d, d, d, d, d};
         const T* p = att + bh * Tq * Tk;
-        if constexpr (D > 0) {
-          if (tkp > 0) {
-            head_backward_blocked<T, D>(gr, x, p, Tq, Tk, tkp, scale, sc);
-            continue;
-          }
-        }
-        head_backward<T, D>(gr, x, p, Tq, Tk, d, scale, sc.scores);
+        head_backward_any<T, D>(gr, x, p, Tq, Tk, d, tkp, scale, sc);
       }
     }
   });
@@ -434,13 +440,7 @@ void small_heads_forward_all(T* out, int64_t ldo, T* att, T* rstd_q, T* rstd_k, 
           x.q = qs, x.k = ks, x.ldq = x.ldk = d;
         }
         const T* m = a.key_mask ? a.key_mask + b * Tk : nullptr;
-        if constexpr (D > 0) {
-          if (tkp > 0) {
-            head_forward_blocked<T, D>(o, x, p, m, Tq, Tk, tkp, s.causal, scale, sc);
-            continue;
-          }
-        }
-        head_forward<T, D>(o, x, p, m, Tq, Tk, d, s.causal, scale);
+        head_forward_any<T, D>(o, x, p, m, Tq, Tk, d, tkp, s.causal, scale, sc);
       }
     }
   });
@@ -487,14 +487,7 @@ void small_heads_backward_all(T* dq, int64_t lddq, T* dk, int64_t lddk, T* dv, i
           gr.dq = need_dq ? gs : nullptr, gr.dk = need_dk ? gs + Tq * d : nullptr, gr.ldq = gr.ldk = d;
         }
         const T* p = att + bh * Tq * Tk;
-        bool done = false;
-        if constexpr (D > 0) {
-          if (tkp > 0) {
-            head_backward_blocked<T, D>(gr, x, p, Tq, Tk, tkp, scale, sc);
-            done = true;
-          }
-        }
-        if (!done) head_backward<T, D>(gr, x, p, Tq, Tk, d, scale, sc.scores);
+        head_backward_any<T, D>(gr, x, p, Tq, Tk, d, tkp, scale, sc);
         if (!through_scratch) continue;
         T* spare = gs + (Tq + Tk) * d;
         if (need_dq)
