@@ -112,13 +112,12 @@ void release_locked(Cache& c) {
 }  // namespace
 
 void* aligned_alloc_pages(size_t nbytes, size_t align) {
-  constexpr size_t kHuge = kHugePage;
-  const size_t a = nbytes < kHuge ? align : kHuge;
+  const size_t a = nbytes < kHugePage ? align : kHugePage;
   void* p = nullptr;
   if (posix_memalign(&p, a, nbytes == 0 ? a : nbytes) != 0) return nullptr;
   // Advice only (the kernel may run without transparent huge pages), and only for the whole 2 MB pages inside the
   // block: a partly used huge page would count its unused rest in the resident set.
-  if (nbytes >= kHuge) madvise(p, nbytes / kHuge * kHuge, MADV_HUGEPAGE);
+  if (nbytes >= kHugePage) madvise(p, nbytes / kHugePage * kHugePage, MADV_HUGEPAGE);
   return p;
 }
 

@@ -352,42 +352,35 @@ void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
             uk.pack_a(g.ta, mc, kc, g.a_at(ic, pc), g.lda, ap);
             macro_kernel(uk, mc, nc, kc, ap, bp, g.C + ic * g.ldc + jc, g.ldc, g.alpha, beta, bias);
           }
-        } else if (split_m) {
-          // Item i of thread u: row block i / panels of u's rows, B panel i % panels. Own items first, then steal.
-          int64_t packed_ic = -1;  // first row block whose A is in ap
-          for (int k = 0; k < team; ++k) {
-            const int u = (t + k) % team;
-            const int64_t r0 = rows_of(u).first, r1 = rows_of(u).second;
-            for (int64_t item; (item = ranges[u].take(k != 0)) >= 0;) {
-              const int64_t ic = r0 + item / panels * MC, mc = std::min(MC, r1 - ic), p = item % panels;
-              if (ic != packed_ic) {
-                uk.pack_a(g.ta, mc, kc, g.a_at(ic, pc), g.lda, ap);
-                packed_ic = ic;
-              }
-              macro_kernel(uk, mc, std::min(nr, nc - p * nr), kc, ap, bp + p * kc * nr,
-                           g.C + ic * g.ldc + jc + p * nr, g.ldc, g.alpha, beta, bias ? bias + p * nr : nullptr);
-            }
-          }
         } else {
-          // Item i of thread u: row block i / panels_u (all rows), panel i % panels_u of u's columns, read from
-          // u's packed B. Own items first, then steal (from the back: the last row block, whose A is usually the
-          // one this thread packed last).
-          int64_t packed_ic = -1;
+          // Thread u's share: rows [r0, r1) against the columns [c, c + n) whose B panels are packed at b (split by
+          // rows: u's rows, this round's shared B block; by columns: all rows, u's columns and u's packed B).
+          // Item i of a share: row block i / panels, B panel i % panels. Own items first, then steal from the back
+          // (by columns the last row block, whose A is usually the one this thread packed last).
+          struct Share {
+            int64_t r0, r1, c, n;
+            const T* b;
+          };
+          auto share_of = [&](int u) {
+            if (split_m) return Share{rows_of(u).first, rows_of(u).second, jc, nc, bp};
+            const auto [c0, c1] = cols_of(u, team);
+            return Share{0, g.M, c0, c1 - c0, u == t ? bp : own_bp[u]};
+          };
+          int64_t packed_ic = -1;  // first row of the block whose A is in ap
           for (int k = 0; k < team; ++k) {
             const int u = (t + k) % team;
-            const int64_t c0 = cols_of(u, team).first, ncu = cols_of(u, team).second - c0;
-            const int64_t pu = ceil_div(ncu, nr);
-            if (k != 0) ranges[u].wait_for(round);
-            const T* bu = k == 0 ? bp : own_bp[u];
-            const T* bias_u = pc == 0 && g.bias ? g.bias + c0 : nullptr;
+            if (!split_m && k != 0) ranges[u].wait_for(round);  // by rows the barrier above published it
+            const Share sh = share_of(u);
+            const int64_t pu = ceil_div(sh.n, nr);
+            const T* bias_u = pc == 0 && g.bias ? g.bias + sh.c : nullptr;
             for (int64_t item; (item = ranges[u].take(k != 0)) >= 0;) {
-              const int64_t ic = item / pu * MC, mc = std::min(MC, g.M - ic), p = item % pu;
+              const int64_t ic = sh.r0 + item / pu * MC, mc = std::min(MC, sh.r1 - ic), p = item % pu;
               if (ic != packed_ic) {
                 uk.pack_a(g.ta, mc, kc, g.a_at(ic, pc), g.lda, ap);
                 packed_ic = ic;
               }
-              macro_kernel(uk, mc, std::min(nr, ncu - p * nr), kc, ap, bu + p * kc * nr, g.C + ic * g.ldc + c0 + p * nr,
-                           g.ldc, g.alpha, beta, bias_u ? bias_u + p * nr : nullptr);
+              macro_kernel(uk, mc, std::min(nr, sh.n - p * nr), kc, ap, sh.b + p * kc * nr,
+                           g.C + ic * g.ldc + sh.c + p * nr, g.ldc, g.alpha, beta, bias_u ? bias_u + p * nr : nullptr);
             }
           }
         }
