@@ -106,25 +106,37 @@ void pack_rows_avx512(int64_t kc, int64_t nc, const float* src, int64_t ld, floa
   }
 }
 
-// op(B) = B^T (the forward of a linear layer, x W^T): full 32-row panels go through 16×16 register transposes;
-// the rest (k tail, partial panel) through the generic packer.
+// op(B) = B^T (the forward of a linear layer, x W^T): full 32-row panels go through 16×16 register transposes,
+// one group of 16 source rows at a time, each walked to the end of kc with its lines prefetched 4 ahead (the next
+// group's first lines once the end is near). Reading all 32 rows of a panel side by side ran at 10-14 GB/s from
+// memory on the AMD host; 16 rows with the prefetch run at 14-20 GB/s. The rest (k tail, partial panel) through
+// the generic packer.
 void pack_b_f32(bool trans, int64_t kc, int64_t nc, const float* b, int64_t ldb, float* bp) {
   if (!trans) return pack_rows_avx512<kNrF>(kc, nc, b, ldb, bp);
+  constexpr int64_t kAhead = 64;  // floats: 4 cache lines
+  const int64_t full = nc / kNrF * kNrF, k16 = kc / 16 * 16;
   for (int64_t j0 = 0; j0 < nc; j0 += kNrF, bp += kc * kNrF) {
     const float* src = b + j0 * ldb;
     if (nc - j0 < kNrF) {
       pack_b_panels<float, kNrF>(true, kc, nc - j0, src, ldb, bp);
       continue;
     }
-    int64_t k = 0;
-    for (; k + 16 <= kc; k += 16)
-      for (int h = 0; h < kNrF; h += 16) {
+    for (int h = 0; h < kNrF; h += 16) {
+      const float* rows = src + h * ldb;
+      const bool next_group = j0 + h + 16 < full;  // the next 16 source rows belong to a full panel too
+      for (int64_t k = 0; k < k16; k += 16) {
+        const int64_t ahead = k + kAhead;
+        if (ahead < kc || next_group) {
+          const float* pf = ahead < kc ? rows + ahead : rows + 16 * ldb + (ahead - kc);
+          for (int i = 0; i < 16; ++i) _mm_prefetch(reinterpret_cast<const char*>(pf + i * ldb), _MM_HINT_T0);
+        }
         __m512 r[16];
-        for (int i = 0; i < 16; ++i) r[i] = _mm512_loadu_ps(src + (h + i) * ldb + k);
+        for (int i = 0; i < 16; ++i) r[i] = _mm512_loadu_ps(rows + i * ldb + k);
         transpose16x16(r);
         for (int i = 0; i < 16; ++i) _mm512_store_ps(bp + (k + i) * kNrF + h, r[i]);
       }
-    for (; k < kc; ++k)
+    }
+    for (int64_t k = k16; k < kc; ++k)
       for (int j = 0; j < kNrF; ++j) bp[k * kNrF + j] = src[j * ldb + k];
   }
 }
