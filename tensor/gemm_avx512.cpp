@@ -108,9 +108,9 @@ void pack_rows_avx512(int64_t kc, int64_t nc, const float* src, int64_t ld, floa
 
 // op(B) = B^T (the forward of a linear layer, x W^T): full 32-row panels go through 16×16 register transposes,
 // one group of 16 source rows at a time, each walked to the end of kc with its lines prefetched 4 ahead (the next
-// group's first lines once the end is near). Reading all 32 rows of a panel side by side ran at 10-14 GB/s from
-// memory on the AMD host; 16 rows with the prefetch run at 14-20 GB/s. The rest (k tail, partial panel) through
-// the generic packer.
+// group's first lines once the end is near). Reading all 32 rows of a panel side by side ran at 9-14 GB/s from
+// memory on one core of the AMD host; 16 rows with the prefetch run at 19-23 GB/s, the rate of the plain row copy
+// (bench/RESULTS.md, session 18). The rest (k tail, partial panel) through the generic packer.
 void pack_b_f32(bool trans, int64_t kc, int64_t nc, const float* b, int64_t ldb, float* bp) {
   if (!trans) return pack_rows_avx512<kNrF>(kc, nc, b, ldb, bp);
   constexpr int64_t kAhead = 64;  // floats: 4 cache lines
