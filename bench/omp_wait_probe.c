@@ -4,7 +4,8 @@
 // summed wall time, the summed waits of thread 0 (the calling thread) and of thread 1, and the summed delay of
 // thread 1's start (negative: it started first). A wait is idle core time: on 2 threads, half of it is wall time.
 //
-// Build and run (any binary; the table goes to $OMP_WAIT_PROBE_OUT, default /tmp/omp_wait_probe.txt, at exit):
+// Build and run (any binary; the table goes to $OMP_WAIT_PROBE_OUT, default /tmp/omp_wait_probe.txt, at exit; the
+// sort below orders it by thread 0's wait):
 //     gcc -O2 -Wall -Wextra -Werror -shared -fPIC -fopenmp bench/omp_wait_probe.c -o /tmp/omp_wait_probe.so -ldl
 //     OMP_NUM_THREADS=2 LD_PRELOAD=/tmp/omp_wait_probe.so build/bench_train_vae --benchmark_filter='B:256/T:64'
 //     sort -t= -k4 -rn /tmp/omp_wait_probe.txt | head -20 | while read bin off rest; do
