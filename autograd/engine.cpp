@@ -143,7 +143,12 @@ void Variable::backward(const Tensor& seed, bool retain_graph) const {
         accumulate_into(*e.leaf, std::move(gin[i]));
       } else {
         Tensor& slot = grads[e.fn.get()];
-        slot = slot.defined() ? add(slot, gin[i]) : std::move(gin[i]);
+        if (!slot.defined())
+          slot = std::move(gin[i]);
+        else if (sole_owner(slot) && slot.shape() == gin[i].shape() && slot.dtype() == gin[i].dtype())
+          add_(slot, gin[i]);  // the engine holds the only handle: sum in place (same values as add)
+        else
+          slot = add(slot, gin[i]);
       }
     }
   }

@@ -167,6 +167,24 @@ TEST(AutogradEngine, GradsDoNotAliasEachOther) {
   EXPECT_EQ(values(b.grad()), (std::vector<double>{1, 1}));
 }
 
+TEST(AutogradEngine, NonLeafSumsInPlaceOnlyWhenUnshared) {
+  // y = sum(1 * (p + (q + 3p))): the outer add's backward hands one (contiguous) tensor to p and to (q + 3p),
+  // whose add hands it on to q. p then gets 3 g from the inner product while q's gradient, the same tensor, is still pending. The engine
+  // sums a node's gradients in place only when it holds the only handle on them, so q's stays 1.
+  Variable x = Variable::parameter(vec({0.2, -0.4}));
+  Variable p = ag::exp(x), q = ag::exp(x * 2.0);
+  p.retain_grad();
+  q.retain_grad();
+  ag::sum((p + (q + p * 3.0)) * 1.0).backward();
+  EXPECT_EQ(values(p.grad()), (std::vector<double>{4, 4}));
+  EXPECT_EQ(values(q.grad()), (std::vector<double>{1, 1}));
+  std::vector<double> g = values(x.grad());
+  for (int i = 0; i < 2; ++i) {
+    const double xi = i == 0 ? 0.2 : -0.4;
+    EXPECT_NEAR(g[i], 4 * std::exp(xi) + 2 * std::exp(2 * xi), 1e-5);
+  }
+}
+
 TEST(AutogradEngine, DeepChainDoesNotOverflowTheStack) {
   const int n = 10000;
   Variable x = Variable::parameter(Tensor::full({1}, 0.5, DType::f64));
