@@ -280,6 +280,13 @@ TEST(BfmTrackEval, UsesThePdScorerOnEveryFrame) {
   EXPECT_GT(kl[0], 0.0);
   const auto kl_same = window_action_kl(agent, r, 3);  // z_hat = z
   EXPECT_NEAR(kl_same[0], 0.0, 1e-9);
+  // The Eq 2 window of the tracking latents: the agent's own (3) by default or when given; another one changes z.
+  ASSERT_EQ(agent.config().track_window, 3);
+  const auto own = track_bfm(agent, humanoid(), r, {}, 3), one = track_bfm(agent, humanoid(), r, {}, 1);
+  EXPECT_EQ(own[1].mpjpe_m, bfm[1].mpjpe_m);
+  EXPECT_EQ(own[1].frames_ok, bfm[1].frames_ok);
+  EXPECT_NE(one[1].mpjpe_m, bfm[1].mpjpe_m);
+  EXPECT_THROW(track_bfm(agent, humanoid(), r, {}, -1), Error);
 }
 
 TEST(BfmTrackEval, HoldableStartClipsKeepsStandingPosesOnly) {

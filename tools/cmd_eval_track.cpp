@@ -34,7 +34,7 @@ namespace bfm = t2m::bfm;
 struct EvalTrackArgs {
   std::string policy = "models/checkpoints/bfm_small.t2mckpt";
   std::string manifest, split = "test", out;
-  int clips = 0, threads = 0, kl_window = 4;
+  int clips = 0, threads = 0, kl_window = 4, track_window = 0;
   double stand_s = 0;
   bool no_pd = false;
   bool expert = false;
@@ -65,6 +65,7 @@ void run_eval_track(const EvalTrackArgs& a) {
   if (a.threads > 0) t2m::set_num_threads(a.threads);
   if (a.clips < 0) throw Error("eval track: --clips must be >= 0");
   if (a.kl_window < 1) throw Error("eval track: --kl-window must be >= 1");
+  if (a.track_window < 0) throw Error("eval track: --track-window must be >= 1 (0 = the policy's own)");
   if (!fs::exists(a.policy)) throw Error("eval track: no policy file '" + a.policy + "' (train one with `t2m train bfm --export`)");
   json info;
   auto agent = bfm::load_policy(a.policy, &info);
@@ -97,7 +98,8 @@ void run_eval_track(const EvalTrackArgs& a) {
   std::fprintf(stderr, "eval track: %d %s %s (%lld frames)\n", refs.clips(), a.split.c_str(), what.c_str(),
                (long long)refs.total_frames());
   auto t0 = clock::now();
-  const auto bfm_res = bfm::track_bfm(*agent, h, refs);
+  const int track_window = a.track_window > 0 ? a.track_window : agent->config().track_window;
+  const auto bfm_res = bfm::track_bfm(*agent, h, refs, {}, track_window);
   const double bfm_s = std::chrono::duration<double>(clock::now() - t0).count();
   const json bs = bfm::summarize_tracking(bfm_res);
   if (!content.empty()) by_content["bfm"] = bfm::summarize_tracking_by_group(bfm_res, content);
@@ -105,10 +107,12 @@ void run_eval_track(const EvalTrackArgs& a) {
                  {"data", "Bandai-Namco-Research-Motiondataset (CC BY-NC 4.0), split " + a.split},
                  {"policy", a.policy},
                  {"policy_info", info},
+                 {"track_window", track_window},
                  {"bfm", bs},
                  {"bfm_seconds", bfm_s}};
   if (a.stand_s > 0) result["stand_seconds"] = a.stand_s;
-  std::printf("eval track (%s split, %d %s, no assist):\n", a.split.c_str(), refs.clips(), what.c_str());
+  std::printf("eval track (%s split, %d %s, no assist; BFM latents: Eq 2 with L = %d):\n", a.split.c_str(),
+              refs.clips(), what.c_str(), track_window);
   print_row("BFM", bs);
   // A baseline controller's row: summary, wall time and per-clip rows under `key`.
   const auto baseline_row = [&](const char* label, const std::string& key, auto track_all) {
@@ -173,6 +177,9 @@ void add_eval_track(CLI::App& app) {
   c->add_option("--split", a.split, "train | val | test")->capture_default_str();
   c->add_option("--clips", a.clips, "evaluate N clips spread over the split (0 = all)")->capture_default_str();
   c->add_option("--kl-window", a.kl_window, "window L of z_hat for the Eq 21 action KL")->capture_default_str();
+  c->add_option("--track-window", a.track_window,
+                "window L of Eq 2 for the BFM's tracking latents (0 = the policy's own, 8 for the shipped ones)")
+      ->capture_default_str();
   c->add_flag("--no-pd", a.no_pd, "skip the PD baseline");
   c->add_option("--stand", a.stand_s,
                 "standing still for SECONDS instead of the clips: qpos0 and each clip's first pose held still")

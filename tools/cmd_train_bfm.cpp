@@ -89,6 +89,7 @@ void run_train_bfm(const TrainBfmArgs& a, CLI::App* app) {
         {"--bc-batch", [&] { f.bc_batch = g.bc_batch; }},
         {"--hidden", [&] { f.fb.hidden = g.fb.hidden; }},
         {"--z-dim", [&] { f.fb.z_dim = g.fb.z_dim; }},
+        {"--track-window", [&] { f.fb.track_window = g.fb.track_window; }},
         {"--collect-every", [&] { f.collect_every = g.collect_every; }},
         {"--online-capacity", [&] { f.online_capacity = g.online_capacity; }}};
     for (const auto& [flag, set] : flags)
@@ -230,6 +231,9 @@ void add_train_bfm(CLI::App& app) {
   c->add_option("--bc-batch", cfg.bc_batch, "behaviour-cloning batch (0 = off)")->capture_default_str();
   c->add_option("--hidden", cfg.fb.hidden, "width of F and the actor")->capture_default_str();
   c->add_option("--z-dim", cfg.fb.z_dim, "latent dimension d")->capture_default_str();
+  c->add_option("--track-window", cfg.fb.track_window,
+                "window L of Eq 2 for the tracking latents (seed and online data, BC rows, eval)")
+      ->capture_default_str();
   c->add_option("--collect-every", cfg.collect_every, "updates between online rounds")->capture_default_str();
   c->add_option("--online-capacity", cfg.online_capacity, "online replay capacity")->capture_default_str();
   c->callback([c] { run_train_bfm(a, c); });

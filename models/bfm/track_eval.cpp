@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstring>
 #include <map>
+#include <string>
 
 #include "autograd/no_grad.h"
 #include "sim/env.h"
@@ -31,12 +32,15 @@ Tensor clip_states(const RefMotions& refs, int c) {
 }  // namespace
 
 std::vector<sim::PdResult> track_bfm(FbAgent& agent, std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs,
-                                     const sim::PdOptions& opt) {
+                                     const sim::PdOptions& opt, int window) {
   check_refs(&agent, *h, refs);
   ag::NoGradGuard ng;
   const int N = refs.clips(), D = refs.obs_dim, A = h->model()->nu, d = agent.config().z_dim;
   std::vector<Tensor> z(N);  // [T-1, d] per clip
-  for (int c = 0; c < N; ++c) z[c] = agent.infer_tracking_z(clip_states(refs, c)).contiguous();
+  if (window < 0) throw Error("track_bfm: window must be >= 0 (0 = the agent's track_window), got " +
+                              std::to_string(window));
+  const int L = window > 0 ? window : agent.config().track_window;
+  for (int c = 0; c < N; ++c) z[c] = agent.infer_tracking_z(clip_states(refs, c), L).contiguous();
   std::vector<std::unique_ptr<sim::Env>> envs;
   std::vector<sim::TrackingScorer> score;
   score.reserve(N);

@@ -27,8 +27,9 @@
 
 namespace t2m::bfm {
 
+// window: L of Eq 2 for the latents (0 = the agent's track_window).
 std::vector<sim::PdResult> track_bfm(FbAgent& agent, std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs,
-                                     const sim::PdOptions& opt = {});
+                                     const sim::PdOptions& opt = {}, int window = 0);
 std::vector<sim::PdResult> track_pd_all(std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs,
                                         const sim::PdOptions& opt = {});
 std::vector<sim::PdResult> track_balance_all(std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs,
