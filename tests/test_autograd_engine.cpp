@@ -169,8 +169,9 @@ TEST(AutogradEngine, GradsDoNotAliasEachOther) {
 
 TEST(AutogradEngine, NonLeafSumsInPlaceOnlyWhenUnshared) {
   // y = sum(1 * (p + (q + 3p))): the outer add's backward hands one (contiguous) tensor to p and to (q + 3p),
-  // whose add hands it on to q. p then gets 3 g from the inner product while q's gradient, the same tensor, is still pending. The engine
-  // sums a node's gradients in place only when it holds the only handle on them, so q's stays 1.
+  // whose add hands it on to q. p then gets 3 g from the inner product while q's gradient, the same tensor, is
+  // still pending. The engine sums a node's gradients in place only when it holds the only handle on them, so
+  // q's stays 1.
   Variable x = Variable::parameter(vec({0.2, -0.4}));
   Variable p = ag::exp(x), q = ag::exp(x * 2.0);
   p.retain_grad();

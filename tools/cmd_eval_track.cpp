@@ -2,7 +2,7 @@
 // reference, roll out the policy mean) and the PD baseline side by side, with the same metrics
 // (sim::TrackingScorer), plus the Eq 21 action KL between the Eq 2 latent sequences at two window lengths.
 //   t2m eval track [--policy models/checkpoints/bfm_small.t2mckpt] [--split test] [--clips N] [--kl-window 4]
-//                  [--no-pd] [--expert] [--stand SECONDS] [--threads T] [--out RESULT.json]
+//                  [--track-window L] [--no-pd] [--expert] [--stand SECONDS] [--threads T] [--out RESULT.json]
 // --clips N: N clips spread evenly over the split (sorted by name, fixed stride), 0 = all.
 // --stand S: standing still instead of the clips: qpos0 and the first frame of every selected clip, each held
 // still for S seconds (bfm::append_static_holds; z = Eq 2 on a static reference = B(s) of the pose).
@@ -65,7 +65,7 @@ void run_eval_track(const EvalTrackArgs& a) {
   if (a.threads > 0) t2m::set_num_threads(a.threads);
   if (a.clips < 0) throw Error("eval track: --clips must be >= 0");
   if (a.kl_window < 1) throw Error("eval track: --kl-window must be >= 1");
-  if (a.track_window < 0) throw Error("eval track: --track-window must be >= 1 (0 = the policy's own)");
+  if (a.track_window < 0) throw Error("eval track: --track-window must be >= 0 (0 = the policy's own window)");
   if (!fs::exists(a.policy)) throw Error("eval track: no policy file '" + a.policy + "' (train one with `t2m train bfm --export`)");
   json info;
   auto agent = bfm::load_policy(a.policy, &info);
