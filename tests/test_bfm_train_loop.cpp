@@ -1,6 +1,7 @@
 // test_bfm_train_loop.cpp — the BFM training loop on a tiny config: bit-identical resume, config mismatch and
 // missing files on resume; Eq 2 window latents vs FbAgent::infer_tracking_z; the training z mix; the policy
-// checkpoint (round trip, bad files); BFM tracking evaluation with the PD baseline's scorer.
+// checkpoint (round trip, bad files); BFM tracking evaluation with the PD baseline's scorer; the hips-only seed
+// expert.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -160,6 +161,30 @@ TEST(BfmTrainLoop, ResumeRejectsOtherConfigAndMissingFiles) {
   EXPECT_THROW(BfmTrainer(bad, humanoid(), toy_refs(), tmp_dir("bad")), Error);
   EXPECT_THROW(BfmTrainConfig::from_json({{"no_such_key", 1}}), Error);
   EXPECT_EQ(BfmTrainConfig::from_json(tiny_config().to_json()).to_json(), tiny_config().to_json());
+}
+
+// --seed-expert balance-hips: the balance expert with its root torque through the stance hips only labels the seed
+// rows (and the DAgger rows); same start states, other expert actions. Unknown experts are rejected.
+TEST(BfmTrainLoop, HipsOnlyBalanceExpertLabelsTheSeedData) {
+  BfmTrainConfig plain = tiny_config(), hips = tiny_config();
+  hips.seed_expert = "balance-hips";
+  BfmTrainer a(plain, humanoid(), toy_refs(), tmp_dir("expert_plain"));
+  BfmTrainer b(hips, humanoid(), toy_refs(), tmp_dir("expert_hips"));
+  a.prepare_seed();
+  b.prepare_seed();
+  const ReplayBuffer &sa = a.seed_buffer(), &sb = b.seed_buffer();
+  ASSERT_EQ(sa.size(), sb.size());
+  const int A = sa.action_dim();
+  EXPECT_EQ(std::vector<float>(sa.obs_row(0), sa.obs_row(0) + sa.obs_dim()),
+            std::vector<float>(sb.obs_row(0), sb.obs_row(0) + sb.obs_dim()));
+  double diff = 0;
+  for (int64_t i = 0; i < sa.size(); ++i)
+    for (int k = 0; k < A; ++k) diff += std::fabs(sa.expert_action_row(i)[k] - sb.expert_action_row(i)[k]);
+  EXPECT_GT(diff, 0.0);
+  EXPECT_EQ(BfmTrainConfig::from_json(hips.to_json()).seed_expert, "balance-hips");
+  BfmTrainConfig bad = tiny_config();
+  bad.seed_expert = "balance-knees";
+  EXPECT_THROW(BfmTrainer(bad, humanoid(), toy_refs(), tmp_dir("expert_bad")), Error);
 }
 
 TEST(BfmTrainLoop, WindowLatentsMatchAgentEq2) {

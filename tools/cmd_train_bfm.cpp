@@ -215,9 +215,11 @@ void add_train_bfm(CLI::App& app) {
   c->add_option("--total-updates", cfg.total_updates, "updates of the whole run")->capture_default_str();
   c->add_option("--offline-updates", cfg.offline_updates, "updates before online collection")->capture_default_str();
   c->add_option("--seed-transitions", cfg.seed_transitions, "noisy-expert seed transitions")->capture_default_str();
-  c->add_option("--seed-expert", cfg.seed_expert, "seed-data tracker: balance (PD + balance feedback) | pd")
+  c->add_option("--seed-expert", cfg.seed_expert,
+                "seed-data and DAgger-label tracker: balance (PD + balance feedback) | balance-hips (its root torque "
+                "through the stance hips only) | pd")
       ->capture_default_str()
-      ->check(CLI::IsMember({"balance", "pd"}));
+      ->check(CLI::IsMember({"balance", "balance-hips", "pd"}));
   c->add_flag("--no-dagger{false}", cfg.dagger,
               "BC on the seed actions only (default: expert labels, half on the policy's relabelled online states)");
   c->add_option("--bc-coef", cfg.fb.bc_coef, "behaviour-cloning weight of the actor loss")->capture_default_str();

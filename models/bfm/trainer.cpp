@@ -97,7 +97,8 @@ void BfmTrainConfig::validate() const {
   if (!(z_track >= 0 && z_goal >= 0 && z_track + z_goal <= 1)) bad("z_track, z_goal in [0, 1] with sum <= 1");
   if (ref_clips < 0) bad("ref_clips must be >= 0");
   if (static_holds < 0) bad("static_holds must be >= 0");
-  if (seed_expert != "pd" && seed_expert != "balance") bad("seed_expert must be 'pd' or 'balance'");
+  if (seed_expert != "pd" && seed_expert != "balance" && seed_expert != "balance-hips")
+    bad("seed_expert must be 'pd', 'balance' or 'balance-hips'");
 }
 
 EncodeFn agent_encoder(FbAgent& agent) {
@@ -129,7 +130,8 @@ BfmTrainer::BfmTrainer(const BfmTrainConfig& cfg, std::shared_ptr<const sim::Hum
   ts_->generator("collect", gen_collect_);
   online_ = std::make_unique<ReplayBuffer>(cfg_.online_capacity, cfg_.fb.obs_dim, cfg_.fb.action_dim, cfg_.dagger);
   CollectOptions co;
-  co.expert = expert_from_string(cfg_.seed_expert);
+  co.expert = expert_from_string(cfg_.seed_expert == "balance-hips" ? "balance" : cfg_.seed_expert);
+  co.balance.torque_at_hips_only = cfg_.seed_expert == "balance-hips";
   co.envs = cfg_.envs;
   co.max_episode_steps = cfg_.max_episode_steps;
   co.window = cfg_.fb.track_window;

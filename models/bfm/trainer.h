@@ -45,7 +45,9 @@ struct BfmTrainConfig {
                                     // frames each (tools/cmd_train_bfm.cpp)
   int64_t seed_transitions = 60000;  // ARCHITECTURE: 1.5-2M; ~220/s on the loaded 2-core machine (docs/BFM.md)
   double seed_noise = 0.1;          // expert action noise of the seed data
-  std::string seed_expert = "balance";  // the seed data's tracker: "balance" (PD + balance feedback) or "pd"
+  std::string seed_expert = "balance";  // the seed data's (and DAgger labels') tracker: "balance" (PD + balance
+                                        // feedback), "balance-hips" (its root torque through the stance hips only,
+                                        // sim::BalanceOptions::torque_at_hips_only) or "pd"
   int envs = 16;                    // parallel environments for collection
   int max_episode_steps = 150;
   int64_t total_updates = 20000;
