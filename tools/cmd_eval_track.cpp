@@ -2,7 +2,8 @@
 // reference, roll out the policy mean) and the PD baseline side by side, with the same metrics
 // (sim::TrackingScorer), plus the Eq 21 action KL between the Eq 2 latent sequences at two window lengths.
 //   t2m eval track [--policy models/checkpoints/bfm_small.t2mckpt] [--split test] [--clips N] [--kl-window 4]
-//                  [--track-window L] [--no-pd] [--expert] [--stand SECONDS] [--threads T] [--out RESULT.json]
+//                  [--track-window L] [--no-pd] [--expert [--torque-at-hips-only]] [--stand SECONDS] [--threads T]
+//                  [--out RESULT.json]
 // --clips N: N clips spread evenly over the split (sorted by name, fixed stride), 0 = all.
 // --stand S: standing still instead of the clips: qpos0 and the first frame of every selected clip, each held
 // still for S seconds (bfm::append_static_holds; z = Eq 2 on a static reference = B(s) of the pose).
@@ -38,6 +39,7 @@ struct EvalTrackArgs {
   double stand_s = 0;
   bool no_pd = false;
   bool expert = false;
+  bool hips_only = false;  // the expert's root torque through the stance hips only (--seed-expert balance-hips)
 };
 
 json rows_json(const bfm::RefMotions& refs, const std::vector<t2m::sim::PdResult>& r) {
@@ -126,9 +128,14 @@ void run_eval_track(const EvalTrackArgs& a) {
     print_row(label, s);
   };
   if (!a.no_pd) baseline_row("PD", "pd", [&] { return bfm::track_pd_all(h, refs); });
-  if (a.expert) baseline_row("PD+balance expert", "balance_expert", [&] { return bfm::track_balance_all(h, refs); });
+  t2m::sim::BalanceOptions bal;
+  bal.torque_at_hips_only = a.hips_only;
+  if (a.expert) result["expert_torque_at_hips_only"] = a.hips_only;
+  if (a.expert)
+    baseline_row(a.hips_only ? "PD+balance expert (hips)" : "PD+balance expert", "balance_expert",
+                 [&] { return bfm::track_balance_all(h, refs, bal); });
   if (a.expert) {  // the student's imitation error against its teacher, on the reference states
-    const std::vector<double> rms = bfm::expert_imitation_rms(*agent, h, refs);
+    const std::vector<double> rms = bfm::expert_imitation_rms(*agent, h, refs, bal);
     double all = 0, ankles = 0;
     for (double r : rms) all += r * r;
     for (int j : {t2m::sim::kFootL, t2m::sim::kFootR})
@@ -184,7 +191,12 @@ void add_eval_track(CLI::App& app) {
   c->add_option("--stand", a.stand_s,
                 "standing still for SECONDS instead of the clips: qpos0 and each clip's first pose held still")
       ->capture_default_str();
-  c->add_flag("--expert", a.expert, "also run the balance-feedback expert the BFM's seed data comes from");
+  CLI::Option* expert =
+      c->add_flag("--expert", a.expert, "also run the balance-feedback expert the BFM's seed data comes from");
+  c->add_flag("--torque-at-hips-only", a.hips_only,
+              "the expert (--expert) applies its root torque through the stance hips only: the teacher of "
+              "`train bfm --seed-expert balance-hips`")
+      ->needs(expert);
   c->add_option("--threads", a.threads, "threads (0 = default)");
   c->add_option("--out", a.out, "write the JSON result here (atomic)");
   c->callback([] { run_eval_track(a); });
