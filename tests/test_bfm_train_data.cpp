@@ -374,6 +374,14 @@ TEST(BfmCollect, NoiselessBalanceActionIsTheExpertTarget) {
   EXPECT_EQ(expert_from_string("pd"), Expert::pd);
   EXPECT_STREQ(expert_name(expert_from_string("balance")), "balance");
   EXPECT_THROW(expert_from_string("mpc"), Error);
+  CollectOptions named;
+  set_expert(named, "balance-hips");
+  EXPECT_EQ(named.expert, Expert::balance);
+  EXPECT_TRUE(named.balance.torque_at_hips_only);
+  set_expert(named, "pd");
+  EXPECT_EQ(named.expert, Expert::pd);
+  EXPECT_FALSE(named.balance.torque_at_hips_only);
+  EXPECT_THROW(set_expert(named, "balance-knees"), Error);
 }
 
 TEST(BfmCollect, PolicyRowsCarryTheExpertLabelOfTheirState) {

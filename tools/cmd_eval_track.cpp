@@ -130,11 +130,10 @@ void run_eval_track(const EvalTrackArgs& a) {
   if (!a.no_pd) baseline_row("PD", "pd", [&] { return bfm::track_pd_all(h, refs); });
   t2m::sim::BalanceOptions bal;
   bal.torque_at_hips_only = a.hips_only;
-  if (a.expert) result["expert_torque_at_hips_only"] = a.hips_only;
-  if (a.expert)
+  if (a.expert) {  // the teacher's row, and the student's imitation error against it on the reference states
+    result["expert_torque_at_hips_only"] = a.hips_only;
     baseline_row(a.hips_only ? "PD+balance expert (hips)" : "PD+balance expert", "balance_expert",
                  [&] { return bfm::track_balance_all(h, refs, bal); });
-  if (a.expert) {  // the student's imitation error against its teacher, on the reference states
     const std::vector<double> rms = bfm::expert_imitation_rms(*agent, h, refs, bal);
     double all = 0, ankles = 0;
     for (double r : rms) all += r * r;

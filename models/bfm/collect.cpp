@@ -102,6 +102,12 @@ Expert expert_from_string(const std::string& s) {
 }
 const char* expert_name(Expert e) { return e == Expert::pd ? "pd" : "balance"; }
 
+void set_expert(CollectOptions& co, const std::string& name) {
+  const bool hips = name == "balance-hips";
+  co.expert = expert_from_string(hips ? "balance" : name);
+  co.balance.torque_at_hips_only = hips;
+}
+
 void TrackingCollector::expert_labels() {
   const int N = opt_.envs, A = venv_.action_dim();
   const mjModel* m = h_->model();

@@ -56,6 +56,10 @@ struct CollectOptions {
   int window = 8;               // L of Eq 2 (policy collection)
 };
 
+// Sets co.expert from a tracker name: "pd", "balance" or "balance-hips" (the balance expert with its root torque
+// through the stance hips only: co.balance.torque_at_hips_only, which the other names clear); else t2m::Error.
+void set_expert(CollectOptions& co, const std::string& name);
+
 struct CollectStats {
   int64_t transitions = 0;       // rows added to the buffer
   int64_t episodes = 0;          // episodes that ended inside the call (ended by the reference end, length, fail)

@@ -130,8 +130,7 @@ BfmTrainer::BfmTrainer(const BfmTrainConfig& cfg, std::shared_ptr<const sim::Hum
   ts_->generator("collect", gen_collect_);
   online_ = std::make_unique<ReplayBuffer>(cfg_.online_capacity, cfg_.fb.obs_dim, cfg_.fb.action_dim, cfg_.dagger);
   CollectOptions co;
-  co.expert = expert_from_string(cfg_.seed_expert == "balance-hips" ? "balance" : cfg_.seed_expert);
-  co.balance.torque_at_hips_only = cfg_.seed_expert == "balance-hips";
+  set_expert(co, cfg_.seed_expert);
   co.envs = cfg_.envs;
   co.max_episode_steps = cfg_.max_episode_steps;
   co.window = cfg_.fb.track_window;
