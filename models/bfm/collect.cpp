@@ -104,6 +104,8 @@ const char* expert_name(Expert e) { return e == Expert::pd ? "pd" : "balance"; }
 
 void set_expert(CollectOptions& co, const std::string& name) {
   const bool hips = name == "balance-hips";
+  if (!hips && name != "pd" && name != "balance")
+    throw Error("collect: unknown expert '" + name + "' (pd | balance | balance-hips)");
   co.expert = expert_from_string(hips ? "balance" : name);
   co.balance.torque_at_hips_only = hips;
 }

@@ -97,8 +97,12 @@ void BfmTrainConfig::validate() const {
   if (!(z_track >= 0 && z_goal >= 0 && z_track + z_goal <= 1)) bad("z_track, z_goal in [0, 1] with sum <= 1");
   if (ref_clips < 0) bad("ref_clips must be >= 0");
   if (static_holds < 0) bad("static_holds must be >= 0");
-  if (seed_expert != "pd" && seed_expert != "balance" && seed_expert != "balance-hips")
-    bad("seed_expert must be 'pd', 'balance' or 'balance-hips'");
+  try {  // the tracker names are set_expert's (models/bfm/collect)
+    CollectOptions probe;
+    set_expert(probe, seed_expert);
+  } catch (const Error& e) {
+    bad(std::string("seed_expert: ") + e.what());
+  }
 }
 
 EncodeFn agent_encoder(FbAgent& agent) {
