@@ -16,6 +16,7 @@
 
 #include "tensor/allocator.h"
 #include "tensor/cpu_features.h"
+#include "tensor/gemm_columns.h"
 #include "tensor/gemm_kernel.h"
 #include "tensor/parallel.h"
 #include "tensor/tensor.h"
@@ -24,6 +25,8 @@ namespace t2m {
 namespace {
 
 using gemm_detail::MicroKernel;
+using gemm_detail::segment_col;
+using gemm_detail::segment_left;
 
 // One C = alpha op(A) op(B) + beta C problem.
 template <typename T>
@@ -39,8 +42,15 @@ struct GemmArgs {
   T* C;
   int64_t ldc;
   const T* bias = nullptr;  // length N, added to every row of C; only with beta == 0 (gemm_bias)
-  const T* a_at(int64_t i, int64_t k) const { return ta ? A + k * lda + i : A + i * lda + k; }  // &op(A)[i,k]
-  const T* b_at(int64_t k, int64_t j) const { return tb ? B + j * ldb + k : B + k * ldb + j; }  // &op(B)[k,j]
+  GemmColumns ac{}, bc{}, cc{};  // the stored matrices' column segments (gemm_segmented); plain by default
+  bool segmented() const { return ac.len || bc.len || cc.len; }
+  const T* a_at(int64_t i, int64_t k) const {  // &op(A)[i,k]
+    return ta ? A + k * lda + segment_col(ac, i) : A + i * lda + segment_col(ac, k);
+  }
+  const T* b_at(int64_t k, int64_t j) const {  // &op(B)[k,j]
+    return tb ? B + j * ldb + segment_col(bc, k) : B + k * ldb + segment_col(bc, j);
+  }
+  T* c_at(int64_t i, int64_t j) const { return C + i * ldc + segment_col(cc, j); }
 };
 
 int64_t ceil_div(int64_t a, int64_t b) { return (a + b - 1) / b; }
@@ -106,10 +116,16 @@ void check_args(const char* op, const GemmArgs<T>& g) {
                 " ldc=" + std::to_string(g.ldc) + ")");
   };
   if (g.M < 0 || g.N < 0 || g.K < 0) fail("negative dimension");
-  const int64_t a_cols = g.ta ? g.M : g.K, b_cols = g.tb ? g.K : g.N;
+  for (const auto& [name, s] : {std::pair{"A", g.ac}, std::pair{"B", g.bc}, std::pair{"C", g.cc}})
+    if (s.len < 0 || (s.len > 0 && s.stride < 1))
+      fail(std::string("column segments of ") + name + ": len " + std::to_string(s.len) + ", stride " +
+           std::to_string(s.stride) + " (len >= 0; stride >= 1 when len > 0)");
+  // The row length each row stride must hold: the stored column count, or one segment's.
+  auto row_len = [](int64_t cols, const GemmColumns& s) { return s.len ? std::min(cols, s.len) : cols; };
+  const int64_t a_cols = row_len(g.ta ? g.M : g.K, g.ac), b_cols = row_len(g.tb ? g.K : g.N, g.bc);
   if (g.lda < std::max<int64_t>(1, a_cols)) fail("lda smaller than the row length of A (" + std::to_string(a_cols) + ")");
   if (g.ldb < std::max<int64_t>(1, b_cols)) fail("ldb smaller than the row length of B (" + std::to_string(b_cols) + ")");
-  if (g.ldc < std::max<int64_t>(1, g.N)) fail("ldc smaller than N");
+  if (g.ldc < std::max<int64_t>(1, row_len(g.N, g.cc))) fail("ldc smaller than the row length of C");
   if (g.M > 0 && g.N > 0 && !g.C) fail("C is null");
   if (g.M > 0 && g.N > 0 && g.K > 0 && g.alpha != T(0) && (!g.A || !g.B)) fail("A or B is null");
 }
@@ -118,16 +134,19 @@ void check_args(const char* op, const GemmArgs<T>& g) {
 
 template <typename T>
 void scale_c(const GemmArgs<T>& g) {
-  for (int64_t i = 0; i < g.M; ++i) {
-    T* c = g.C + i * g.ldc;
-    if (g.bias) {
-      std::copy(g.bias, g.bias + g.N, c);
-    } else if (g.beta == T(0)) {
-      std::fill(c, c + g.N, T(0));
-    } else if (g.beta != T(1)) {
-      for (int64_t j = 0; j < g.N; ++j) c[j] *= g.beta;
+  for (int64_t i = 0; i < g.M; ++i)
+    for (int64_t j0 = 0; j0 < g.N;) {  // by runs of contiguous columns (the whole row when C is plain)
+      const int64_t n = std::min(g.N - j0, segment_left(g.cc, j0));
+      T* c = g.c_at(i, j0);
+      if (g.bias) {
+        std::copy(g.bias + j0, g.bias + j0 + n, c);
+      } else if (g.beta == T(0)) {
+        std::fill(c, c + n, T(0));
+      } else if (g.beta != T(1)) {
+        for (int64_t j = 0; j < n; ++j) c[j] *= g.beta;
+      }
+      j0 += n;
     }
-  }
 }
 
 // ---- small shapes: no packing ---------------------------------------------------------------------------------
@@ -213,22 +232,45 @@ void gemm_small(const GemmArgs<T>& g, int nt) {
 
 // ---- the packed path ------------------------------------------------------------------------------------------
 
-// C block (mc×nc, row stride ldc) from packed A (mc×kc) and packed B (kc×nc). A short last row panel whose height
-// has a kernel of its own (MicroKernel::short_m) runs it on C directly; other edge tiles go through a local tile so
-// that the micro-kernel always runs full-size.
+// The C block at rows from `c` (row stride ldc), columns [j0, j0 + nc) (stored in segments cs), from packed A
+// (mc×kc) and packed B (kc×nc). A short last row panel whose height has a kernel of its own
+// (MicroKernel::short_m) runs it on C directly; other edge tiles, and tiles whose columns straddle a segment
+// boundary, go through a local tile so that the micro-kernel always runs full-size.
 template <typename T>
 void macro_kernel(const MicroKernel<T>& uk, int64_t mc, int64_t nc, int64_t kc, const T* ap, const T* bp, T* c,
-                  int64_t ldc, T alpha, T beta, const T* bias) {
+                  int64_t ldc, const GemmColumns& cs, int64_t j0, T alpha, T beta, const T* bias) {
   const int mr = uk.mr, nr = uk.nr;
   alignas(64) T tile[32 * 64];
+  // One row of an edge tile from the local tile t: n columns at row.
+  auto store_row = [&](T* row, const T* t, const T* bias_j, int64_t n) {
+    if (beta == T(0) && bias_j) {
+      for (int64_t j = 0; j < n; ++j) row[j] = std::fma(alpha, t[j], bias_j[j]);
+    } else if (beta == T(0)) {
+      for (int64_t j = 0; j < n; ++j) row[j] = alpha * t[j];
+    } else {
+      for (int64_t j = 0; j < n; ++j) row[j] = std::fma(alpha, t[j], beta * row[j]);
+    }
+  };
   for (int64_t jr = 0; jr < nc; jr += nr) {
     const int64_t n = std::min<int64_t>(nr, nc - jr);
     const T* b = bp + (jr / nr) * kc * nr;
     const T* bias_j = bias ? bias + jr : nullptr;
+    const bool one_run = segment_left(cs, j0 + jr) >= n;  // the tile's columns are contiguous in C
     for (int64_t ir = 0; ir < mc; ir += mr) {
       const int64_t m = std::min<int64_t>(mr, mc - ir);
       const T* a = ap + (ir / mr) * kc * mr;
-      T* cc = c + ir * ldc + jr;
+      T* cc = c + ir * ldc + segment_col(cs, j0 + jr);
+      if (!one_run) {
+        uk.kernel(kc, a, b, tile, nr, T(1), T(0), nullptr);
+        for (int64_t i = 0; i < m; ++i)
+          for (int64_t j = 0; j < n;) {
+            const int64_t run = std::min(n - j, segment_left(cs, j0 + jr + j));
+            store_row(c + (ir + i) * ldc + segment_col(cs, j0 + jr + j), tile + i * nr + j,
+                      bias_j ? bias_j + j : nullptr, run);
+            j += run;
+          }
+        continue;
+      }
       if (m == mr && n == nr) {
         if (beta != T(0))  // the kernel reads C only at its end: start pulling the tile in (beta == 0 only writes)
           for (int i = 0; i < mr; ++i) {
@@ -244,19 +286,30 @@ void macro_kernel(const MicroKernel<T>& uk, int64_t mc, int64_t nc, int64_t kc, 
         continue;
       }
       uk.kernel(kc, a, b, tile, nr, T(1), T(0), nullptr);
-      for (int64_t i = 0; i < m; ++i) {
-        T* row = cc + i * ldc;
-        const T* t = tile + i * nr;
-        if (beta == T(0) && bias_j) {
-          for (int64_t j = 0; j < n; ++j) row[j] = std::fma(alpha, t[j], bias_j[j]);
-        } else if (beta == T(0)) {
-          for (int64_t j = 0; j < n; ++j) row[j] = alpha * t[j];
-        } else {
-          for (int64_t j = 0; j < n; ++j) row[j] = std::fma(alpha, t[j], beta * row[j]);
-        }
-      }
+      for (int64_t i = 0; i < m; ++i) store_row(cc + i * ldc, tile + i * nr, bias_j, n);
     }
   }
+}
+
+// op(A)[ic : ic + mc, pc : pc + kc] and op(B)[pc : pc + kc, jc : jc + nc] into the panel layouts of gemm_kernel.h
+// (the plain packers, or gemm_columns.h's segment walk around them).
+template <typename T>
+void pack_a_block(const MicroKernel<T>& uk, const GemmArgs<T>& g, int64_t ic, int64_t mc, int64_t pc, int64_t kc,
+                  T* ap) {
+  if (!g.ac.len) return uk.pack_a(g.ta, mc, kc, g.a_at(ic, pc), g.lda, ap);
+  gemm_detail::pack_segmented(g.ta, uk.mr, g.A, g.lda, g.ac, ic, mc, pc, kc, ap,
+                              [&](const T* src, int64_t np, int64_t nd, T* out) {
+                                uk.pack_a(g.ta, np, nd, src, g.lda, out);
+                              });
+}
+template <typename T>
+void pack_b_block(const MicroKernel<T>& uk, const GemmArgs<T>& g, int64_t pc, int64_t kc, int64_t jc, int64_t nc,
+                  T* bp) {
+  if (!g.bc.len) return uk.pack_b(g.tb, kc, nc, g.b_at(pc, jc), g.ldb, bp);
+  gemm_detail::pack_segmented(!g.tb, uk.nr, g.B, g.ldb, g.bc, jc, nc, pc, kc, bp,
+                              [&](const T* src, int64_t np, int64_t nd, T* out) {
+                                uk.pack_b(g.tb, nd, np, src, g.ldb, out);
+                              });
 }
 
 // The (row block, B panel) work items of one thread's share of C in one (jc, pc) round: front and back indices in
@@ -336,11 +389,10 @@ void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
         if (split_m) {
           if (ranges) ranges[t].reset(ceil_div(m1 - m0, MC) * panels);  // published by the barrier below
           const int64_t p0 = panels * t / team, p1 = panels * (t + 1) / team;  // this thread's B panels
-          if (p1 > p0)
-            uk.pack_b(g.tb, kc, std::min(p1 * nr, nc) - p0 * nr, g.b_at(pc, jc + p0 * nr), g.ldb, bp + p0 * kc * nr);
+          if (p1 > p0) pack_b_block(uk, g, pc, kc, jc + p0 * nr, std::min(p1 * nr, nc) - p0 * nr, bp + p0 * kc * nr);
 #pragma omp barrier
         } else {
-          uk.pack_b(g.tb, kc, nc, g.b_at(pc, jc), g.ldb, bp);
+          pack_b_block(uk, g, pc, kc, jc, nc, bp);
           if (ranges) {
             ranges[t].reset(ceil_div(m1 - m0, MC) * panels);
             ranges[t].publish(round);
@@ -349,8 +401,8 @@ void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
         if (!ranges) {  // one thread, or split by columns without stealing: this thread's rows in order
           for (int64_t ic = m0; ic < m1; ic += MC) {
             const int64_t mc = std::min(MC, m1 - ic);
-            uk.pack_a(g.ta, mc, kc, g.a_at(ic, pc), g.lda, ap);
-            macro_kernel(uk, mc, nc, kc, ap, bp, g.C + ic * g.ldc + jc, g.ldc, g.alpha, beta, bias);
+            pack_a_block(uk, g, ic, mc, pc, kc, ap);
+            macro_kernel(uk, mc, nc, kc, ap, bp, g.C + ic * g.ldc, g.ldc, g.cc, jc, g.alpha, beta, bias);
           }
         } else {
           // Thread u's share: rows [r0, r1) against the columns [c, c + n) whose B panels are packed at b (split by
@@ -376,11 +428,11 @@ void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
             for (int64_t item; (item = ranges[u].take(k != 0)) >= 0;) {
               const int64_t ic = sh.r0 + item / pu * MC, mc = std::min(MC, sh.r1 - ic), p = item % pu;
               if (ic != packed_ic) {
-                uk.pack_a(g.ta, mc, kc, g.a_at(ic, pc), g.lda, ap);
+                pack_a_block(uk, g, ic, mc, pc, kc, ap);
                 packed_ic = ic;
               }
-              macro_kernel(uk, mc, std::min(nr, sh.n - p * nr), kc, ap, sh.b + p * kc * nr,
-                           g.C + ic * g.ldc + sh.c + p * nr, g.ldc, g.alpha, beta, bias_u ? bias_u + p * nr : nullptr);
+              macro_kernel(uk, mc, std::min(nr, sh.n - p * nr), kc, ap, sh.b + p * kc * nr, g.C + ic * g.ldc, g.ldc,
+                           g.cc, sh.c + p * nr, g.alpha, beta, bias_u ? bias_u + p * nr : nullptr);
             }
           }
         }
@@ -405,7 +457,7 @@ template <typename T>
 void gemm_run(const GemmArgs<T>& g, int nt) {
   if (g.M == 0 || g.N == 0) return;
   if (g.K == 0 || g.alpha == T(0)) return scale_c(g);
-  if (is_small(g)) return gemm_small(g, nt);
+  if (is_small(g) && !g.segmented()) return gemm_small(g, nt);
   gemm_packed(select_kernel<T>(), g, nt);
 }
 
@@ -472,6 +524,32 @@ void gemm_batched(bool ta, bool tb, int64_t batch, int64_t M, int64_t N, int64_t
                   int64_t lda, int64_t sa, const double* B, int64_t ldb, int64_t sb, double beta, double* C,
                   int64_t ldc, int64_t sc) {
   gemm_batch(ta, tb, batch, M, N, K, alpha, A, lda, sa, B, ldb, sb, beta, C, ldc, sc);
+}
+
+namespace {
+template <typename T>
+void gemm_segments(bool ta, bool tb, int64_t M, int64_t N, int64_t K, T alpha, const T* A, int64_t lda,
+                   GemmColumns ac, const T* B, int64_t ldb, GemmColumns bc, T beta, T* C, int64_t ldc,
+                   GemmColumns cc) {
+  GemmArgs<T> g{ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, C, ldc};
+  g.ac = ac;
+  g.bc = bc;
+  g.cc = cc;
+  check_args("gemm_segmented", g);
+  gemm_run(g, threads_for(M * N * K));
+}
+
+}  // namespace
+
+void gemm_segmented(bool ta, bool tb, int64_t M, int64_t N, int64_t K, float alpha, const float* A, int64_t lda,
+                    GemmColumns ac, const float* B, int64_t ldb, GemmColumns bc, float beta, float* C, int64_t ldc,
+                    GemmColumns cc) {
+  gemm_segments(ta, tb, M, N, K, alpha, A, lda, ac, B, ldb, bc, beta, C, ldc, cc);
+}
+void gemm_segmented(bool ta, bool tb, int64_t M, int64_t N, int64_t K, double alpha, const double* A, int64_t lda,
+                    GemmColumns ac, const double* B, int64_t ldb, GemmColumns bc, double beta, double* C,
+                    int64_t ldc, GemmColumns cc) {
+  gemm_segments(ta, tb, M, N, K, alpha, A, lda, ac, B, ldb, bc, beta, C, ldc, cc);
 }
 
 const char* gemm_kernel_name() { return chosen_kernel() == kAvx512 ? "avx512" : "avx2"; }

@@ -35,6 +35,26 @@ void gemm_batched(bool trans_a, bool trans_b, int64_t batch, int64_t M, int64_t 
                   const double* A, int64_t lda, int64_t stride_a, const double* B, int64_t ldb, int64_t stride_b,
                   double beta, double* C, int64_t ldc, int64_t stride_c);
 
+// Columns stored in segments: column c of a matrix lies at column (c / len) * stride + c % len of its row (the row
+// stride ld applies within a segment); len == 0: plain, column c at c. E.g. a (B, C, T) tensor read as one
+// C x (B T) matrix, column b T + t: ld T, len T, stride C T. A convolution multiplies every sample's (C, T) slice
+// at once this way, without copying the samples side by side first.
+struct GemmColumns {
+  int64_t len = 0, stride = 0;
+};
+
+// gemm where each stored matrix may keep its columns in segments: A's stored columns are op(A)'s K (its M when
+// trans_a), B's are op(B)'s N (its K when trans_b), C's are N. The same packed data and kernel calls as gemm on
+// the gathered plain matrices, so the same bits, except for the shapes gemm computes without packing (a dimension
+// <= 2, or M N K <= 24^3), which run packed here. lda/ldb/ldc must hold one segment's row (>= len when len < the
+// column count). Errors: as gemm, plus len < 0, or len > 0 with stride < 1.
+void gemm_segmented(bool trans_a, bool trans_b, int64_t M, int64_t N, int64_t K, float alpha, const float* A,
+                    int64_t lda, GemmColumns a_cols, const float* B, int64_t ldb, GemmColumns b_cols, float beta,
+                    float* C, int64_t ldc, GemmColumns c_cols);
+void gemm_segmented(bool trans_a, bool trans_b, int64_t M, int64_t N, int64_t K, double alpha, const double* A,
+                    int64_t lda, GemmColumns a_cols, const double* B, int64_t ldb, GemmColumns b_cols, double beta,
+                    double* C, int64_t ldc, GemmColumns c_cols);
+
 // Which float micro-kernel the dispatcher picked on this CPU: "avx512" or "avx2".
 const char* gemm_kernel_name();
 // Force a kernel (for tests/benchmarks): "avx512", "avx2" or "auto". Throws Error if the CPU lacks it.

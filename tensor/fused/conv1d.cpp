@@ -1,8 +1,11 @@
 // conv1d.cpp — k3 stride-1 shapes that pay go to Winograd (conv1d_winograd.cpp); the others, per chunk of samples
 // (chunk_samples: the chunk's column matrix stays in cache), im2col into col (Cin*K, nb*To), column b*To + to, then
-//   forward:  tmp (Cout, nb*To) = W (Cout, Cin*K) @ col;       out[b, co, to] = tmp[co, b*To + to] + bias[co]
-//   backward: dtmp (Cout, nb*To) = dout transposed to that layout; dbias[co] += row sums of dtmp
-//             dW (Cout, Cin*K) += dtmp @ col^T;  dcol (Cin*K, nb*To) = W^T @ dtmp;  dinp = col2im(dcol)
+//   forward:  out (Cout, nb*To) = W (Cout, Cin*K) @ col;  out[b, co, to] += bias[co]
+//   backward: dbias[co] += sums of dout[b, co, :];  dW (Cout, Cin*K) += dout @ col^T
+//             dcol (Cin*K, nb*To) = W^T @ dout;  dinp = col2im(dcol)
+// where out and dout are read and written in place as (Cout, nb*To) matrices whose columns lie in segments of To
+// (gemm_segmented: sample b's (Cout, To) slice is columns [b*To, b*To + To)). A k1 stride-1 unpadded convolution
+// skips im2col too (col would be a copy of inp): inp, and dinp, are segmented matrices (Cin, nb*T) as well.
 #include "tensor/fused/conv1d.h"
 
 #include <string>
@@ -66,6 +69,14 @@ int winograd_tile(const Conv1dShape& s) {
     default: return conv1d_winograd_tile(s);
   }
 }
+
+// k = 1, stride 1, no padding: the column matrix would be inp itself, sample by sample.
+bool reads_input_as_columns(const Conv1dShape& s) {
+  return s.K == 1 && s.stride == 1 && s.pad_left() == 0 && s.pad_right() == 0;
+}
+
+// A (B, C, L) tensor's samples side by side as one (C, B*L) matrix (row stride L): column b*L + l.
+GemmColumns sample_columns(int64_t L, int64_t C) { return GemmColumns{L, C * L}; }
 
 int64_t chunk_samples(const Conv1dShape& s, int64_t To) {
   const int64_t per = s.Cin * s.K * To;
@@ -138,20 +149,28 @@ void conv1d_forward(T* out, const T* inp, const T* weight, const T* bias, const 
   check_ptr(op, "weight", weight);
   if (const int m = winograd_tile(s)) return conv1d_winograd_forward(out, inp, weight, bias, s, m);
   const int64_t CK = s.Cin * s.K, NB = chunk_samples(s, To);
-  T* col = fused_scratch<T>(0, CK * NB * To);
-  T* tmp = fused_scratch<T>(1, s.Cout * NB * To);
+  const bool k1 = reads_input_as_columns(s);
+  T* col = k1 ? nullptr : fused_scratch<T>(0, CK * NB * To);
   for (int64_t b0 = 0; b0 < s.B; b0 += NB) {
     const int64_t nb = s.B - b0 < NB ? s.B - b0 : NB, N = nb * To;
-    im2col(col, inp, s, To, b0, nb);
-    gemm(false, false, s.Cout, N, CK, (T)1, weight, CK, col, N, (T)0, tmp, N);
+    T* o = out + b0 * s.Cout * To;
+    if (k1) {
+      gemm_segmented(false, false, s.Cout, N, CK, (T)1, weight, CK, {}, inp + b0 * s.Cin * s.T, s.T,
+                     sample_columns(s.T, s.Cin), (T)0, o, To, sample_columns(To, s.Cout));
+    } else {
+      im2col(col, inp, s, To, b0, nb);
+      gemm_segmented(false, false, s.Cout, N, CK, (T)1, weight, CK, {}, col, N, {}, (T)0, o, To,
+                     sample_columns(To, s.Cout));
+    }
+    if (!bias) continue;
+    // After the product, not as its starting value: a bias joining before the last K block would round otherwise.
     const int nt = fused_threads(s.Cout * N);
 #pragma omp parallel for collapse(2) num_threads(nt) schedule(static) if (nt > 1)
     for (int64_t b = 0; b < nb; ++b)
       for (int64_t co = 0; co < s.Cout; ++co) {
-        const T* src = tmp + co * N + b * To;
-        T* dst = out + ((b0 + b) * s.Cout + co) * To;
-        const T bv = bias ? bias[co] : (T)0;
-        for (int64_t to = 0; to < To; ++to) dst[to] = src[to] + bv;
+        T* dst = o + (b * s.Cout + co) * To;
+        const T bv = bias[co];
+        for (int64_t to = 0; to < To; ++to) dst[to] += bv;
       }
   }
 }
@@ -168,29 +187,37 @@ void conv1d_backward(T* dinp, T* dweight, T* dbias, const T* dout, const T* inp,
   if (const int m = winograd_tile(s))
     return conv1d_winograd_backward(dinp, dweight, dbias, dout, inp, weight, s, m);
   const int64_t CK = s.Cin * s.K, NB = chunk_samples(s, To);
-  T* col = fused_scratch<T>(0, CK * NB * To);
-  T* dtmp = fused_scratch<T>(1, s.Cout * NB * To);
+  const bool k1 = reads_input_as_columns(s);
+  T* col = k1 ? nullptr : fused_scratch<T>(0, CK * NB * To);
+  const GemmColumns out_cols = sample_columns(To, s.Cout), in_cols = sample_columns(s.T, s.Cin);
   for (int64_t b0 = 0; b0 < s.B; b0 += NB) {
     const int64_t nb = s.B - b0 < NB ? s.B - b0 : NB, N = nb * To;
-    const int nt = fused_threads(s.Cout * N);
+    const T* dO = dout + b0 * s.Cout * To;  // (Cout, N) in segments
+    if (dbias) {
+      const int nt = fused_threads(s.Cout * N);
 #pragma omp parallel for num_threads(nt) schedule(static) if (nt > 1)
-    for (int64_t co = 0; co < s.Cout; ++co) {
-      T* dst = dtmp + co * N;
-      T part[16] = {};  // 16 partial sums of the bias gradient: vectorisable, same order for any thread count
-      for (int64_t b = 0; b < nb; ++b) {
-        const T* src = dout + ((b0 + b) * s.Cout + co) * To;
-        for (int64_t to = 0; to < To; ++to) dst[b * To + to] = src[to];
-        add_to_partials16(part, src, To);
+      for (int64_t co = 0; co < s.Cout; ++co) {
+        T part[16] = {};  // 16 partial sums of the bias gradient: vectorisable, same order for any thread count
+        for (int64_t b = 0; b < nb; ++b) add_to_partials16(part, dO + (b * s.Cout + co) * To, To);
+        dbias[co] += sum_partials16(part);
       }
-      if (dbias) dbias[co] += sum_partials16(part);
     }
     if (dweight) {
-      im2col(col, inp, s, To, b0, nb);
-      gemm(false, true, s.Cout, CK, N, (T)1, dtmp, N, col, N, (T)1, dweight, CK);
+      if (k1) {
+        gemm_segmented(false, true, s.Cout, CK, N, (T)1, dO, To, out_cols, inp + b0 * s.Cin * s.T, s.T, in_cols,
+                       (T)1, dweight, CK, {});
+      } else {
+        im2col(col, inp, s, To, b0, nb);
+        gemm_segmented(false, true, s.Cout, CK, N, (T)1, dO, To, out_cols, col, N, {}, (T)1, dweight, CK, {});
+      }
     }
-    if (dinp) {
+    if (!dinp) continue;
+    if (k1) {
+      gemm_segmented(true, false, CK, N, s.Cout, (T)1, weight, CK, {}, dO, To, out_cols, (T)0,
+                     dinp + b0 * s.Cin * s.T, s.T, in_cols);
+    } else {
       T* dcol = col;  // col is no longer needed
-      gemm(true, false, CK, N, s.Cout, (T)1, weight, CK, dtmp, N, (T)0, dcol, N);
+      gemm_segmented(true, false, CK, N, s.Cout, (T)1, weight, CK, {}, dO, To, out_cols, (T)0, dcol, N, {});
       col2im(dinp, dcol, s, To, b0, nb);
     }
   }

@@ -8,8 +8,9 @@
 // Backward writes dinp (=) and accumulates dweight/dbias (+=); the replicate padding's gradient flows into frame 0.
 // The GEMMs work on chunks of nb samples at once (the column matrix is (Cin*K, nb*To), nb as large as keeps it
 // within 4 MB of float, at least 1, the whole batch for small shapes); dweight/dbias accumulate chunk by chunk.
-// Scratch (thread-local, scratch.h): slot 0 col (Cin*K * nb*To), slot 1 (Cout * nb*To) elements; the K=1,
-// stride=1, pad=0 case still uses both (the column matrix is then a copy of the input in (Cin, B*T) layout).
+// out, dout (and for a K=1, stride=1, unpadded convolution also inp and dinp) are read and written in place as
+// (C, nb*To) matrices in per-sample column segments (gemm_segmented), without relayout copies.
+// Scratch (thread-local, scratch.h): slot 0 col (Cin*K * nb*To) elements; none for the K=1, stride=1, pad=0 case.
 // Algorithm: k = 3, stride 1 convolutions whose shape pays for it run Winograd F(m, 3) instead
 // (conv1d_winograd.h: 1/3 to 1/2 fewer multiply-adds); Conv1dShape::algo forces one path (tests, benchmarks).
 // Deterministic for a fixed thread count (every reduction has a fixed order).
