@@ -131,9 +131,11 @@ TEST(Conv1d, NoBiasAndSkippedGradients) {
 }
 
 // Shapes whose column matrix exceeds the kernel's 4 MB chunk: the batch is processed in chunks of samples (here
-// 2, 2, 1 and 1, 1, 1 samples); values and all three gradients against direct double loops.
+// 2, 2, 1; 1, 1, 1; and 2, 1 for the pointwise one, which reads inp and writes dinp in place, 2000-frame segments
+// not a multiple of the GEMM's panel width); values and all three gradients against direct double loops.
 TEST(Conv1d, BatchChunksMatchDirectConvolution) {
-  for (const Conv1dShape& s : {shape(5, 128, 2, 2000, 2, 1, 1, 0, true), shape(3, 64, 2, 8200, 4, 2, 1, 0, true)}) {
+  for (const Conv1dShape& s : {shape(5, 128, 2, 2000, 2, 1, 1, 0, true), shape(3, 64, 2, 8200, 4, 2, 1, 0, true),
+                               shape(3, 256, 2, 2000, 1, 1, 1, 0, false)}) {
     const int64_t To = s.out_len(), padL = (s.K - 1) * s.dilation + 0;
     Vec x = randn(s.B * s.Cin * s.T, 71), w = randn(s.Cout * s.Cin * s.K, 72), b = randn(s.Cout, 73);
     const Vec R = randn(s.B * s.Cout * To, 74);
