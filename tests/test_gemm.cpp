@@ -15,6 +15,7 @@
 #include "tensor/gemm.h"
 #include "tensor/parallel.h"
 #include "tensor/tensor.h"
+#include "test_gemm_util.h"
 
 namespace {
 
@@ -94,20 +95,6 @@ void check_gemm(bool ta, bool tb, int64_t M, int64_t N, int64_t K, T alpha, T be
   EXPECT_EQ(bad, 0);
 }
 
-// Runs fn once per available kernel (avx512 only where the CPU has it), restoring "auto" afterwards.
-template <typename F>
-void for_each_kernel(F fn) {
-  std::vector<std::string> kernels = {"avx2"};
-  if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512dq") &&
-      __builtin_cpu_supports("avx512vl"))
-    kernels.push_back("avx512");
-  for (const auto& k : kernels) {
-    t2m::gemm_force_kernel(k.c_str());
-    EXPECT_STREQ(t2m::gemm_kernel_name(), k.c_str());
-    fn();
-  }
-  t2m::gemm_force_kernel("auto");
-}
 
 const std::vector<int64_t> kOddSizes = {1, 2, 7, 15, 16, 17, 33, 64};
 

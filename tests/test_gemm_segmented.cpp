@@ -14,6 +14,7 @@
 #include "tensor/gemm.h"
 #include "tensor/parallel.h"
 #include "tensor/tensor.h"
+#include "test_gemm_util.h"
 
 namespace {
 
@@ -48,18 +49,6 @@ struct Segmented {
   }
 };
 
-template <typename F>
-void for_each_kernel(F fn) {
-  std::vector<std::string> kernels = {"avx2"};
-  if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512dq") &&
-      __builtin_cpu_supports("avx512vl"))
-    kernels.push_back("avx512");
-  for (const auto& k : kernels) {
-    t2m::gemm_force_kernel(k.c_str());
-    fn();
-  }
-  t2m::gemm_force_kernel("auto");
-}
 
 bool same_bits(float a, float b) { return std::memcmp(&a, &b, sizeof a) == 0; }
 
