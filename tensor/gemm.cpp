@@ -461,11 +461,13 @@ void gemm_run(const GemmArgs<T>& g, int nt) {
   gemm_packed(select_kernel<T>(), g, nt);
 }
 
+// One product through the public entry points; `op` names the entry point in errors.
 template <typename T>
 void gemm_one(bool ta, bool tb, int64_t M, int64_t N, int64_t K, T alpha, const T* A, int64_t lda, const T* B,
-              int64_t ldb, T beta, T* C, int64_t ldc, const T* bias = nullptr) {
-  const GemmArgs<T> g{ta, tb, M, N, K, alpha, A, lda, B, ldb, bias ? T(0) : beta, C, ldc, bias};
-  check_args("gemm", g);
+              int64_t ldb, T beta, T* C, int64_t ldc, const T* bias = nullptr, GemmColumns ac = {},
+              GemmColumns bc = {}, GemmColumns cc = {}, const char* op = "gemm") {
+  const GemmArgs<T> g{ta, tb, M, N, K, alpha, A, lda, B, ldb, bias ? T(0) : beta, C, ldc, bias, ac, bc, cc};
+  check_args(op, g);
   gemm_run(g, threads_for(M * N * K));
 }
 
@@ -526,30 +528,17 @@ void gemm_batched(bool ta, bool tb, int64_t batch, int64_t M, int64_t N, int64_t
   gemm_batch(ta, tb, batch, M, N, K, alpha, A, lda, sa, B, ldb, sb, beta, C, ldc, sc);
 }
 
-namespace {
-template <typename T>
-void gemm_segments(bool ta, bool tb, int64_t M, int64_t N, int64_t K, T alpha, const T* A, int64_t lda,
-                   GemmColumns ac, const T* B, int64_t ldb, GemmColumns bc, T beta, T* C, int64_t ldc,
-                   GemmColumns cc) {
-  GemmArgs<T> g{ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, C, ldc};
-  g.ac = ac;
-  g.bc = bc;
-  g.cc = cc;
-  check_args("gemm_segmented", g);
-  gemm_run(g, threads_for(M * N * K));
-}
-
-}  // namespace
-
 void gemm_segmented(bool ta, bool tb, int64_t M, int64_t N, int64_t K, float alpha, const float* A, int64_t lda,
                     GemmColumns ac, const float* B, int64_t ldb, GemmColumns bc, float beta, float* C, int64_t ldc,
                     GemmColumns cc) {
-  gemm_segments(ta, tb, M, N, K, alpha, A, lda, ac, B, ldb, bc, beta, C, ldc, cc);
+  gemm_one(ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, C, ldc, static_cast<const float*>(nullptr), ac, bc, cc,
+           "gemm_segmented");
 }
 void gemm_segmented(bool ta, bool tb, int64_t M, int64_t N, int64_t K, double alpha, const double* A, int64_t lda,
                     GemmColumns ac, const double* B, int64_t ldb, GemmColumns bc, double beta, double* C,
                     int64_t ldc, GemmColumns cc) {
-  gemm_segments(ta, tb, M, N, K, alpha, A, lda, ac, B, ldb, bc, beta, C, ldc, cc);
+  gemm_one(ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, C, ldc, static_cast<const double*>(nullptr), ac, bc, cc,
+           "gemm_segmented");
 }
 
 const char* gemm_kernel_name() { return chosen_kernel() == kAvx512 ? "avx512" : "avx2"; }
