@@ -260,18 +260,7 @@ void macro_kernel(const MicroKernel<T>& uk, int64_t mc, int64_t nc, int64_t kc, 
       const int64_t m = std::min<int64_t>(mr, mc - ir);
       const T* a = ap + (ir / mr) * kc * mr;
       T* cc = c + ir * ldc + segment_col(cs, j0 + jr);
-      if (!one_run) {
-        uk.kernel(kc, a, b, tile, nr, T(1), T(0), nullptr);
-        for (int64_t i = 0; i < m; ++i)
-          for (int64_t j = 0; j < n;) {
-            const int64_t run = std::min(n - j, segment_left(cs, j0 + jr + j));
-            store_row(c + (ir + i) * ldc + segment_col(cs, j0 + jr + j), tile + i * nr + j,
-                      bias_j ? bias_j + j : nullptr, run);
-            j += run;
-          }
-        continue;
-      }
-      if (m == mr && n == nr) {
+      if (one_run && m == mr && n == nr) {
         if (beta != T(0))  // the kernel reads C only at its end: start pulling the tile in (beta == 0 only writes)
           for (int i = 0; i < mr; ++i) {
             __builtin_prefetch(cc + i * ldc, 1);
@@ -280,13 +269,19 @@ void macro_kernel(const MicroKernel<T>& uk, int64_t mc, int64_t nc, int64_t kc, 
         uk.kernel(kc, a, b, cc, ldc, alpha, beta, bias_j);
         continue;
       }
-      const int s = n < nr ? -1 : m == uk.short_m[0] ? 0 : m == uk.short_m[1] ? 1 : -1;
+      const int s = !one_run || n < nr ? -1 : m == uk.short_m[0] ? 0 : m == uk.short_m[1] ? 1 : -1;
       if (s >= 0 && uk.short_kernel[s]) {  // a short row panel of a size with its own kernel: straight into C
         uk.short_kernel[s](kc, a, b, cc, ldc, alpha, beta, bias_j);
         continue;
       }
       uk.kernel(kc, a, b, tile, nr, T(1), T(0), nullptr);
-      for (int64_t i = 0; i < m; ++i) store_row(cc + i * ldc, tile + i * nr, bias_j, n);
+      for (int64_t i = 0; i < m; ++i)
+        for (int64_t j = 0; j < n;) {  // by runs of contiguous columns: one, unless the tile straddles a segment
+          const int64_t run = std::min(n - j, segment_left(cs, j0 + jr + j));
+          store_row(c + (ir + i) * ldc + segment_col(cs, j0 + jr + j), tile + i * nr + j,
+                    bias_j ? bias_j + j : nullptr, run);
+          j += run;
+        }
     }
   }
 }
