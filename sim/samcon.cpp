@@ -11,20 +11,14 @@
 
 #include "sim/env.h"
 #include "sim/retarget.h"
+#include "sim/samcon_window.h"
 #include "tensor/parallel.h"
 #include "tensor/tensor.h"
 
 namespace t2m::sim {
-namespace {
+namespace samcon_detail {
 
-void check_options(const SamconOptions& o) {
-  if (o.samples < 1 || o.beam < 1 || o.beam > o.samples || o.window < 1 || !(o.sigma >= 0) || !std::isfinite(o.sigma))
-    throw Error("track_samcon: bad options (samples " + std::to_string(o.samples) + ", beam " +
-                std::to_string(o.beam) + ", window " + std::to_string(o.window) + ", sigma " +
-                std::to_string(o.sigma) + "): need samples >= beam >= 1, window >= 1, finite sigma >= 0");
-}
-
-// One step towards reference frame t: the expert's targets plus the offset, clamped; the env advances.
+// The expert's targets towards frame t plus the offset, clamped; the env advances one control step.
 void step_with_offset(Env& env, const QposTrajectory& ref, const BalanceReference& bref, const BalanceOptions& bo,
                       int t, const double* offset, double* ctrl) {
   const mjModel* m = env.model();
@@ -34,7 +28,6 @@ void step_with_offset(Env& env, const QposTrajectory& ref, const BalanceReferenc
   env.step_targets(ctrl, nullptr);
 }
 
-// mean_j |p_sim - p_ref|² of frame t, and the largest |p_sim - p_ref| in *worst.
 double frame_cost(const mjData* d, const std::vector<int>& bodies, const float* ref_pos, double* worst) {
   double sum = 0, mx = 0;
   for (size_t j = 0; j < bodies.size(); ++j) {
@@ -48,6 +41,20 @@ double frame_cost(const mjData* d, const std::vector<int>& bodies, const float* 
   }
   *worst = std::sqrt(mx);
   return sum / (double)bodies.size();
+}
+
+}  // namespace samcon_detail
+
+namespace {
+
+using samcon_detail::frame_cost;
+using samcon_detail::step_with_offset;
+
+void check_options(const SamconOptions& o) {
+  if (o.samples < 1 || o.beam < 1 || o.beam > o.samples || o.window < 1 || !(o.sigma >= 0) || !std::isfinite(o.sigma))
+    throw Error("track_samcon: bad options (samples " + std::to_string(o.samples) + ", beam " +
+                std::to_string(o.beam) + ", window " + std::to_string(o.window) + ", sigma " +
+                std::to_string(o.sigma) + "): need samples >= beam >= 1, window >= 1, finite sigma >= 0");
 }
 
 struct Candidate {

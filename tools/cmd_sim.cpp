@@ -25,6 +25,7 @@
 #include "models/data/splits.h"
 #include "sim/balance_tracker.h"
 #include "sim/samcon.h"
+#include "sim/samcon_mpc.h"
 #include "sim/bvh.h"
 #include "sim/env.h"
 #include "sim/export.h"
@@ -190,6 +191,8 @@ struct PdArgs {
   sim::BalanceOptions bo;
   bool samcon = false;
   sim::SamconOptions so;
+  bool mpc = false;  // --samcon-mpc: the closed-loop search (window, sigma and seed from so)
+  sim::SamconMpcOptions mo;
   std::string export_dir;
 };
 
@@ -208,23 +211,36 @@ void run_track_pd(const PdArgs& a) {
   po.velocity_feedforward = !a.no_ff;
   Progress prog{N};
   const auto t0 = std::chrono::steady_clock::now();
-  // --samcon searches each clip with all threads (sim/samcon.h); the other controllers run one clip per thread.
-#pragma omp parallel for schedule(dynamic) if (!a.samcon)
+  // --samcon / --samcon-mpc search each clip with all threads (sim/samcon*.h); the other controllers run one clip
+  // per thread.
+  const bool search = a.samcon || a.mpc;
+#pragma omp parallel for schedule(dynamic) if (!search)
   for (int i = 0; i < N; ++i) {
     json row = {{"name", clips[i].first}};
     try {
       const sim::QposTrajectory ref = sim::retarget(*h, load_motion(clips[i].second));
+      // The searches' actuator targets per control step (a demonstration) -> NAME.ctrl.json.
+      auto export_ctrl = [&](int searched, const std::vector<double>& ctrl, const std::vector<double>& offset) {
+        row["frames_searched"] = searched;
+        if (!a.export_dir.empty())
+          write_json(a.export_dir + "/" + clips[i].first + ".ctrl.json",
+                     {{"format", "t2m-ctrl-1"}, {"fps", ref.fps}, {"nu", (int)(ctrl.size() / std::max(ref.frames - 1, 1))},
+                      {"frames_searched", searched}, {"ctrl", ctrl}, {"offset", offset}});
+      };
       if (a.samcon) {
         sim::SamconOptions so = a.so;
         so.balance = a.bo;
         so.seed = a.so.seed + (uint64_t)i;  // per clip
         sim::SamconResult sr = sim::track_samcon(h, ref, so, po);
-        row["frames_searched"] = sr.frames_searched;
-        if (!a.export_dir.empty())  // the teacher's actuator targets per control step (a demonstration)
-          write_json(a.export_dir + "/" + clips[i].first + ".ctrl.json",
-                     {{"format", "t2m-ctrl-1"}, {"fps", ref.fps}, {"nu", (int)(sr.ctrl.size() / std::max(ref.frames - 1, 1))},
-                      {"frames_searched", sr.frames_searched}, {"ctrl", sr.ctrl}, {"offset", sr.offset}});
+        export_ctrl(sr.frames_searched, sr.ctrl, sr.offset);
         res[i] = std::move(sr.track);
+      } else if (a.mpc) {
+        sim::SamconMpcOptions mo = a.mo;
+        mo.window = a.so.window, mo.sigma = a.so.sigma, mo.balance = a.bo;
+        mo.seed = a.so.seed + (uint64_t)i;  // per clip
+        sim::SamconMpcResult mr = sim::track_samcon_mpc(h, ref, mo, po);
+        export_ctrl(mr.frames_planned, mr.ctrl, mr.offset);
+        res[i] = std::move(mr.track);
       } else {
         sim::Env env(h, sim::EnvOptions{.substeps = sim::kSubsteps, .assist_force = a.assist});
         sim::BalanceOptions bo = a.bo;
@@ -268,7 +284,7 @@ void run_track_pd(const PdArgs& a) {
             {"gain_scale", a.gain_scale},
             {"velocity_feedforward", !a.no_ff},
             {"control_steps_per_s", frames / std::max(secs, 1e-9)}};
-  const char* controller = a.samcon ? "samcon" : a.balance ? "balance expert" : "PD";
+  const char* controller = a.samcon ? "samcon" : a.mpc ? "samcon-mpc" : a.balance ? "balance expert" : "PD";
   s["controller"] = controller;
   std::printf("track-pd (%s, %s, %d clips, assist %.0f N, gains x%g%s): success %.1f%%, fall %.1f%%, MPJPE %.1f mm, root drift "
               "%.2f m, frames tracked %.1f%%, %.0f control steps/s\n",
@@ -367,7 +383,7 @@ void add_sim_commands(CLI::App& app) {
                 "balance: Gaussian noise std added to every target in [-1, 1] action units (seed = clip index)")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 2.0));
-  p->add_option("--export-dir", pd.export_dir, "write the simulated motion of every clip here (NAME.bvh and NAME.qpos.json; with --samcon also NAME.ctrl.json, the actuator targets per control step)");
+  p->add_option("--export-dir", pd.export_dir, "write the simulated motion of every clip here (NAME.bvh and NAME.qpos.json; with --samcon or --samcon-mpc also NAME.ctrl.json, the actuator targets per control step)");
   p->add_flag("--samcon", pd.samcon,
               "search offsets to the balance expert's targets per 0.1 s window (SAMCON, sim/samcon.h; slow: "
               "~80 s per 6 s clip at 512 samples on 2 threads)");
@@ -376,8 +392,16 @@ void add_sim_commands(CLI::App& app) {
   p->add_option("--samcon-window", pd.so.window, "samcon: control steps per window")->capture_default_str()->check(CLI::PositiveNumber);
   p->add_option("--samcon-sigma", pd.so.sigma, "samcon: std of the per-hinge target offset, rad")->capture_default_str()->check(CLI::Range(0.0, 1.0));
   p->add_option("--samcon-seed", pd.so.seed, "samcon: seed (clip i uses seed + i)")->capture_default_str();
+  p->add_flag("--samcon-mpc", pd.mpc,
+              "closed-loop search: plan each 0.1 s window from the state the body is in (sim/samcon_mpc.h; "
+              "--samcon-window, --samcon-sigma and --samcon-seed apply; ~6 s per second of motion on 2 threads)");
+  p->add_option("--mpc-samples", pd.mo.samples, "samcon-mpc: candidates per window")->capture_default_str()->check(CLI::PositiveNumber);
+  p->add_option("--mpc-horizon", pd.mo.horizon, "samcon-mpc: look-ahead in windows")->capture_default_str()->check(CLI::PositiveNumber);
+  p->add_option("--mpc-carry", pd.mo.carry, "samcon-mpc: share of the previous offset new candidates start from")->capture_default_str()->check(CLI::Range(0.0, 1.0));
+  p->add_option("--target-noise", pd.mo.target_noise, "samcon-mpc: Gaussian noise on every applied target, rad (robustness)")->capture_default_str()->check(CLI::Range(0.0, 1.0));
   p->callback([] {
-    if (pd.samcon && pd.assist != 0) throw Error("track-pd: --samcon does not take --assist");
+    if (pd.samcon && pd.mpc) throw Error("track-pd: --samcon and --samcon-mpc exclude each other");
+    if ((pd.samcon || pd.mpc) && pd.assist != 0) throw Error("track-pd: --samcon / --samcon-mpc do not take --assist");
     run_track_pd(pd);
   });
 

@@ -1,0 +1,115 @@
+// samcon_mpc.cpp — the closed-loop window planner of samcon_mpc.h.
+#include "sim/samcon_mpc.h"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <string>
+
+#include "sim/env.h"
+#include "sim/retarget.h"
+#include "sim/samcon_window.h"
+#include "tensor/parallel.h"
+#include "tensor/tensor.h"
+
+namespace t2m::sim {
+namespace {
+
+using samcon_detail::frame_cost;
+using samcon_detail::step_with_offset;
+
+void check_options(const SamconMpcOptions& o) {
+  const bool ok = o.samples >= 1 && o.window >= 1 && o.horizon >= 1 && o.sigma >= 0 && std::isfinite(o.sigma) &&
+                  o.target_noise >= 0 && std::isfinite(o.target_noise) && o.carry >= 0 && o.carry <= 1;
+  if (!ok)
+    throw Error("track_samcon_mpc: bad options (samples " + std::to_string(o.samples) + ", window " +
+                std::to_string(o.window) + ", horizon " + std::to_string(o.horizon) + ", sigma " +
+                std::to_string(o.sigma) + ", carry " + std::to_string(o.carry) + ", target noise " +
+                std::to_string(o.target_noise) +
+                "): need samples, window, horizon >= 1, finite sigma and noise >= 0, carry in [0, 1]");
+}
+
+}  // namespace
+
+SamconMpcResult track_samcon_mpc(const std::shared_ptr<const Humanoid>& h, const QposTrajectory& ref,
+                                 const SamconMpcOptions& opt, const PdOptions& pd) {
+  check_options(opt);
+  if (!h || !h->is_humanoid()) throw Error("track_samcon_mpc: the model is not the t2m humanoid");
+  check_tracking_reference(h->model(), ref, "track_samcon_mpc");
+  const BalanceReference bref = balance_reference(*h, ref);
+  const std::vector<float> ref_pos = replay_joint_positions(*h, ref);  // [T, J, 3]
+  const std::vector<int>& bodies = h->tracked_bodies();
+  const size_t J = bodies.size();
+  BalanceOptions bo = opt.balance;
+  bo.action_noise = 0;
+  const int T = ref.frames, nt = std::max(1, get_num_threads()), S = opt.samples;
+  std::vector<std::unique_ptr<Env>> envs;  // one per thread, for the candidates
+  for (int i = 0; i < nt; ++i) envs.push_back(std::make_unique<Env>(h));
+  Env body(h);  // the tracked body
+  const int nu = body.model()->nu;
+
+  SamconMpcResult res;
+  res.offset.assign((size_t)std::max(T - 1, 0) * nu, 0.0);
+  res.ctrl.assign(res.offset.size(), 0.0);
+  TrackingScorer score(*h, ref, pd);
+  body.reset(ref.qpos.data(), ref.qvel.data(), nullptr);
+  score.add_frame(body);
+
+  std::mt19937_64 rng(opt.seed);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::vector<double> offsets((size_t)S * nu), cost((size_t)S), worst((size_t)S), prev((size_t)nu, 0.0);
+  std::vector<double> applied((size_t)nu);
+  EnvState now;
+  bool planning = true;
+  int t = 0;
+  while (t + 1 < T) {
+    const int w = std::min(opt.window, T - 1 - t);
+    if (planning) {
+      const int steps = std::min(opt.window * opt.horizon, T - 1 - t);
+      body.save_state(now);
+      for (int i = 0; i < S; ++i)
+        for (int k = 0; k < nu; ++k)
+          offsets[(size_t)i * nu + k] = i == 0 ? 0.0 : i == 1 ? prev[k] : opt.carry * prev[k] + opt.sigma * normal(rng);
+#pragma omp parallel for schedule(dynamic) num_threads(nt)
+      for (int i = 0; i < S; ++i) {
+        Env& env = *envs[(size_t)omp_get_thread_num()];
+        std::vector<double> ctrl((size_t)nu);
+        env.restore_state(now);
+        double c = 0, mx = 0;
+        for (int s = 1; s <= steps; ++s) {
+          step_with_offset(env, ref, bref, bo, t + s, offsets.data() + (size_t)i * nu, ctrl.data());
+          double wv = 0;
+          c += frame_cost(env.data(), bodies, ref_pos.data() + (size_t)(t + s) * J * 3, &wv);
+          mx = std::max(mx, env.diverged() ? INFINITY : wv);
+        }
+        cost[(size_t)i] = c, worst[(size_t)i] = mx;
+      }
+      int best = 0;  // survivors first, then the cost, then the index
+      auto better = [&](int a, int b) {
+        const bool sa = worst[(size_t)a] < pd.fail_distance, sb = worst[(size_t)b] < pd.fail_distance;
+        return sa != sb ? sa : cost[(size_t)a] < cost[(size_t)b];
+      };
+      for (int i = 1; i < S; ++i)
+        if (better(i, best)) best = i;
+      std::copy(offsets.begin() + (size_t)best * nu, offsets.begin() + (size_t)(best + 1) * nu, prev.begin());
+    }
+    bool failed = false;
+    for (int s = 1; s <= w; ++s) {
+      double* off = res.offset.data() + (size_t)(t + s - 1) * nu;
+      if (planning) std::copy(prev.begin(), prev.end(), off);
+      for (int k = 0; k < nu; ++k) applied[(size_t)k] = off[k] + (opt.target_noise > 0 ? opt.target_noise * normal(rng) : 0.0);
+      step_with_offset(body, ref, bref, bo, t + s, applied.data(), res.ctrl.data() + (size_t)(t + s - 1) * nu);
+      score.add_frame(body);
+      failed = failed || score.last_frame_error() >= pd.fail_distance;
+    }
+    t += w;
+    if (planning) res.frames_planned = t;
+    if (failed) planning = false;
+  }
+  res.track = score.result();
+  return res;
+}
+
+}  // namespace t2m::sim

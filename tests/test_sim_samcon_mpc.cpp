@@ -1,0 +1,135 @@
+// test_sim_samcon_mpc.cpp — the closed-loop SAMCON planner (sim/samcon_mpc.h) on the real 60-frame Bandai-Namco walk
+// of test_sim_samcon (tests/fixtures/bvh/bandai_walk_60.bvh): with no sampling it is the balance expert, bit for
+// bit; with sampling it walks the clip the expert falls on, also with noise on the applied targets that throws the
+// same search's open-loop path off; the result does not depend on the thread count; bad options are rejected.
+#include <gtest/gtest.h>
+
+#include <random>
+#include <string>
+
+#include "sim/balance_tracker.h"
+#include "sim/bvh.h"
+#include "sim/samcon.h"
+#include "sim/samcon_mpc.h"
+#include "sim/skeleton.h"
+#include "tensor/parallel.h"
+#include "tensor/tensor.h"
+
+using namespace t2m::sim;
+
+namespace {
+std::shared_ptr<const Humanoid> humanoid() {
+  static auto h = Humanoid::create();
+  return h;
+}
+const QposTrajectory& walk() {
+  static const QposTrajectory q = retarget(
+      *humanoid(), motion_from_bvh(read_bvh(std::string(T2M_SOURCE_DIR) + "/tests/fixtures/bvh/bandai_walk_60.bvh")));
+  return q;
+}
+SamconMpcOptions small() {
+  SamconMpcOptions o;
+  o.samples = 32;
+  return o;
+}
+}  // namespace
+
+TEST(SimSamconMpc, NoSamplingIsTheBalanceExpert) {
+  SamconMpcOptions o;
+  o.samples = 1;  // only the zero offset
+  const SamconMpcResult r = track_samcon_mpc(humanoid(), walk(), o);
+  Env env(humanoid());
+  const PdResult e = track_balance(env, walk());
+  ASSERT_EQ(e.simulated.frames, walk().frames);
+  EXPECT_EQ(r.track.simulated.qpos, e.simulated.qpos);  // the same simulation, bit for bit
+  EXPECT_EQ(r.track.simulated.qvel, e.simulated.qvel);
+  EXPECT_EQ(r.track.frames_ok, e.frames_ok);
+  EXPECT_EQ(r.track.success, e.success);
+  for (double v : r.offset) EXPECT_EQ(v, 0.0);
+  // Planning stops with the window that holds the first failed frame (index frames_ok).
+  EXPECT_GE(r.frames_planned, e.frames_ok);
+  EXPECT_LT(r.frames_planned, e.frames_ok + o.window);
+}
+
+TEST(SimSamconMpc, WalksTheClipTheExpertFallsOn) {
+  Env env(humanoid());
+  const PdResult e = track_balance(env, walk());
+  ASSERT_FALSE(e.success);
+  ASSERT_LT(e.frames_ok, 30);
+  const SamconMpcResult r = track_samcon_mpc(humanoid(), walk(), small());
+  EXPECT_TRUE(r.track.success);
+  EXPECT_EQ(r.track.frames_ok, walk().frames);
+  EXPECT_EQ(r.frames_planned, walk().frames - 1);
+  EXPECT_LT(r.track.mpjpe_m, 0.15);
+  EXPECT_FALSE(r.track.fell);
+  ASSERT_EQ(r.ctrl.size(), (size_t)(walk().frames - 1) * env.model()->nu);
+  bool moved = false;  // the planner did more than the expert
+  for (double v : r.offset) moved = moved || v != 0.0;
+  EXPECT_TRUE(moved);
+}
+
+TEST(SimSamconMpc, ClosedLoopSurvivesNoiseThatBreaksTheOpenLoopPath) {
+  // The open-loop path of the beam search, replayed with noise on its targets, loses the walk; the planner, which
+  // re-plans from wherever the noise has put the body, keeps it.
+  SamconOptions so;
+  so.samples = 64, so.beam = 8;
+  const SamconResult path = track_samcon(humanoid(), walk(), so);
+  ASSERT_TRUE(path.track.success);
+  const double noise = 0.05;  // rad per target per step
+  int open_ok = 0;
+  for (uint64_t seed = 1; seed <= 3; ++seed) {
+    Env env(humanoid());
+    const BalanceReference br = balance_reference(*humanoid(), walk());
+    TrackingScorer score(*humanoid(), walk());
+    env.reset(walk().qpos.data(), walk().qvel.data(), nullptr);
+    score.add_frame(env);
+    std::mt19937_64 rng(seed);
+    std::normal_distribution<double> normal(0.0, noise);
+    const int nu = env.model()->nu;
+    std::vector<double> ctrl((size_t)nu);
+    for (int t = 1; t < walk().frames; ++t) {
+      for (int k = 0; k < nu; ++k) ctrl[(size_t)k] = path.ctrl[(size_t)(t - 1) * nu + k] + normal(rng);
+      clamp_to_ctrlrange(env.model(), ctrl.data());
+      env.step_targets(ctrl.data(), nullptr);
+      score.add_frame(env);
+    }
+    open_ok += score.result().success;
+  }
+  int closed_ok = 0;
+  for (uint64_t seed = 1; seed <= 3; ++seed) {
+    SamconMpcOptions o = small();
+    o.target_noise = noise, o.seed = seed;
+    closed_ok += track_samcon_mpc(humanoid(), walk(), o).track.success;
+  }
+  EXPECT_GT(closed_ok, open_ok);
+  EXPECT_GE(closed_ok, 2);
+}
+
+TEST(SimSamconMpc, SameResultForAnyThreadCount) {
+  const int saved = t2m::get_num_threads();
+  SamconMpcOptions o;
+  o.samples = 12, o.horizon = 2, o.seed = 5, o.target_noise = 0.02;
+  std::vector<SamconMpcResult> r;
+  for (int threads : {1, 2}) {
+    t2m::set_num_threads(threads);
+    r.push_back(track_samcon_mpc(humanoid(), walk(), o));
+  }
+  t2m::set_num_threads(saved);
+  EXPECT_EQ(r[0].offset, r[1].offset);
+  EXPECT_EQ(r[0].ctrl, r[1].ctrl);
+  EXPECT_EQ(r[0].track.simulated.qpos, r[1].track.simulated.qpos);
+  EXPECT_GT(r[0].frames_planned, 0);
+}
+
+TEST(SimSamconMpc, BadOptionsThrow) {
+  for (auto f : {+[](SamconMpcOptions& o) { o.samples = 0; }, +[](SamconMpcOptions& o) { o.window = 0; },
+                 +[](SamconMpcOptions& o) { o.horizon = 0; }, +[](SamconMpcOptions& o) { o.sigma = -0.1; },
+                 +[](SamconMpcOptions& o) { o.carry = 1.5; }, +[](SamconMpcOptions& o) { o.target_noise = -1; }}) {
+    SamconMpcOptions o;
+    f(o);
+    EXPECT_THROW(track_samcon_mpc(humanoid(), walk(), o), t2m::Error);
+  }
+  QposTrajectory bad = walk();
+  bad.qvel.pop_back();
+  EXPECT_THROW(track_samcon_mpc(humanoid(), bad, SamconMpcOptions{}), t2m::Error);
+}
