@@ -43,11 +43,40 @@ double frame_cost(const mjData* d, const std::vector<int>& bodies, const float* 
   return sum / (double)bodies.size();
 }
 
+SearchContext make_search_context(const char* who, const std::shared_ptr<const Humanoid>& h,
+                                  const QposTrajectory& ref, const BalanceOptions& bo) {
+  if (!h || !h->is_humanoid()) throw Error(std::string(who) + ": the model is not the t2m humanoid");
+  check_tracking_reference(h->model(), ref, who);
+  SearchContext c;
+  c.bref = balance_reference(*h, ref);
+  c.ref_pos = replay_joint_positions(*h, ref);
+  c.bodies = h->tracked_bodies();
+  c.bo = bo;
+  c.bo.action_noise = 0;
+  for (int i = 0, nt = std::max(1, get_num_threads()); i < nt; ++i) c.envs.push_back(std::make_unique<Env>(h));
+  return c;
+}
+
+double simulate_candidate(Env& env, const SearchContext& c, const QposTrajectory& ref, int t, int steps,
+                          const double* offset, double* worst) {
+  std::vector<double> ctrl((size_t)env.model()->nu);
+  const size_t J = c.bodies.size();
+  double cost = 0, mx = 0;
+  for (int s = 1; s <= steps; ++s) {
+    step_with_offset(env, ref, c.bref, c.bo, t + s, offset, ctrl.data());
+    double w = 0;
+    cost += frame_cost(env.data(), c.bodies, c.ref_pos.data() + (size_t)(t + s) * J * 3, &w);
+    mx = std::max(mx, env.diverged() ? INFINITY : w);
+  }
+  *worst = mx;
+  return cost;
+}
+
 }  // namespace samcon_detail
 
 namespace {
 
-using samcon_detail::frame_cost;
+using samcon_detail::SearchContext;
 using samcon_detail::step_with_offset;
 
 void check_options(const SamconOptions& o) {
@@ -79,17 +108,9 @@ struct PathNode {
 SamconResult track_samcon(const std::shared_ptr<const Humanoid>& h, const QposTrajectory& ref,
                           const SamconOptions& opt, const PdOptions& pd) {
   check_options(opt);
-  if (!h || !h->is_humanoid()) throw Error("track_samcon: the model is not the t2m humanoid");
-  check_tracking_reference(h->model(), ref, "track_samcon");
-  const BalanceReference bref = balance_reference(*h, ref);
-  const std::vector<float> ref_pos = replay_joint_positions(*h, ref);  // [T, J, 3]
-  const std::vector<int>& bodies = h->tracked_bodies();
-  const size_t J = bodies.size();
-  BalanceOptions bo = opt.balance;
-  bo.action_noise = 0;
-  const int T = ref.frames, nt = std::max(1, get_num_threads());
-  std::vector<std::unique_ptr<Env>> envs;
-  for (int i = 0; i < nt; ++i) envs.push_back(std::make_unique<Env>(h));
+  SearchContext ctx = samcon_detail::make_search_context("track_samcon", h, ref, opt.balance);
+  const int T = ref.frames, nt = (int)ctx.envs.size();
+  auto& envs = ctx.envs;
   const int nu = envs[0]->model()->nu;
 
   std::vector<PathNode> tree;
@@ -113,15 +134,8 @@ SamconResult track_samcon(const std::shared_ptr<const Humanoid>& h, const QposTr
     for (int i = 0; i < opt.samples; ++i) {
       Candidate& c = cand[(size_t)i];
       Env& env = *envs[(size_t)omp_get_thread_num()];
-      std::vector<double> ctrl((size_t)nu);
       env.restore_state(kept[(size_t)c.parent].state);
-      c.cost = c.worst = 0;
-      for (int s = 1; s <= w; ++s) {
-        step_with_offset(env, ref, bref, bo, t + s, c.offset.data(), ctrl.data());
-        double worst = 0;
-        c.cost += frame_cost(env.data(), bodies, ref_pos.data() + (size_t)(t + s) * J * 3, &worst);
-        c.worst = std::max(c.worst, env.diverged() ? INFINITY : worst);
-      }
+      c.cost = samcon_detail::simulate_candidate(env, ctx, ref, t, w, c.offset.data(), &c.worst);
       env.save_state(c.end);
     }
     std::vector<int> order;
@@ -162,7 +176,7 @@ SamconResult track_samcon(const std::shared_ptr<const Humanoid>& h, const QposTr
   score.add_frame(env);
   res.ctrl.assign((size_t)(T - 1) * nu, 0.0);
   for (int f = 1; f < T; ++f) {
-    step_with_offset(env, ref, bref, bo, f, res.offset.data() + (size_t)(f - 1) * nu,
+    step_with_offset(env, ref, ctx.bref, ctx.bo, f, res.offset.data() + (size_t)(f - 1) * nu,
                      res.ctrl.data() + (size_t)(f - 1) * nu);
     score.add_frame(env);
   }

@@ -9,16 +9,12 @@
 #include <string>
 
 #include "sim/env.h"
-#include "sim/retarget.h"
 #include "sim/samcon_window.h"
 #include "tensor/parallel.h"
 #include "tensor/tensor.h"
 
 namespace t2m::sim {
 namespace {
-
-using samcon_detail::frame_cost;
-using samcon_detail::step_with_offset;
 
 void check_options(const SamconMpcOptions& o) {
   const bool ok = o.samples >= 1 && o.window >= 1 && o.horizon >= 1 && o.sigma >= 0 && std::isfinite(o.sigma) &&
@@ -36,17 +32,8 @@ void check_options(const SamconMpcOptions& o) {
 SamconMpcResult track_samcon_mpc(const std::shared_ptr<const Humanoid>& h, const QposTrajectory& ref,
                                  const SamconMpcOptions& opt, const PdOptions& pd) {
   check_options(opt);
-  if (!h || !h->is_humanoid()) throw Error("track_samcon_mpc: the model is not the t2m humanoid");
-  check_tracking_reference(h->model(), ref, "track_samcon_mpc");
-  const BalanceReference bref = balance_reference(*h, ref);
-  const std::vector<float> ref_pos = replay_joint_positions(*h, ref);  // [T, J, 3]
-  const std::vector<int>& bodies = h->tracked_bodies();
-  const size_t J = bodies.size();
-  BalanceOptions bo = opt.balance;
-  bo.action_noise = 0;
-  const int T = ref.frames, nt = std::max(1, get_num_threads()), S = opt.samples;
-  std::vector<std::unique_ptr<Env>> envs;  // one per thread, for the candidates
-  for (int i = 0; i < nt; ++i) envs.push_back(std::make_unique<Env>(h));
+  samcon_detail::SearchContext ctx = samcon_detail::make_search_context("track_samcon_mpc", h, ref, opt.balance);
+  const int T = ref.frames, nt = (int)ctx.envs.size(), S = opt.samples;
   Env body(h);  // the tracked body
   const int nu = body.model()->nu;
 
@@ -74,17 +61,10 @@ SamconMpcResult track_samcon_mpc(const std::shared_ptr<const Humanoid>& h, const
           offsets[(size_t)i * nu + k] = i == 0 ? 0.0 : i == 1 ? prev[k] : opt.carry * prev[k] + opt.sigma * normal(rng);
 #pragma omp parallel for schedule(dynamic) num_threads(nt)
       for (int i = 0; i < S; ++i) {
-        Env& env = *envs[(size_t)omp_get_thread_num()];
-        std::vector<double> ctrl((size_t)nu);
+        Env& env = *ctx.envs[(size_t)omp_get_thread_num()];
         env.restore_state(now);
-        double c = 0, mx = 0;
-        for (int s = 1; s <= steps; ++s) {
-          step_with_offset(env, ref, bref, bo, t + s, offsets.data() + (size_t)i * nu, ctrl.data());
-          double wv = 0;
-          c += frame_cost(env.data(), bodies, ref_pos.data() + (size_t)(t + s) * J * 3, &wv);
-          mx = std::max(mx, env.diverged() ? INFINITY : wv);
-        }
-        cost[(size_t)i] = c, worst[(size_t)i] = mx;
+        cost[(size_t)i] = samcon_detail::simulate_candidate(env, ctx, ref, t, steps, offsets.data() + (size_t)i * nu,
+                                                            &worst[(size_t)i]);
       }
       int best = 0;  // survivors first, then the cost, then the index
       auto better = [&](int a, int b) {
@@ -99,8 +79,10 @@ SamconMpcResult track_samcon_mpc(const std::shared_ptr<const Humanoid>& h, const
     for (int s = 1; s <= w; ++s) {
       double* off = res.offset.data() + (size_t)(t + s - 1) * nu;
       if (planning) std::copy(prev.begin(), prev.end(), off);
-      for (int k = 0; k < nu; ++k) applied[(size_t)k] = off[k] + (opt.target_noise > 0 ? opt.target_noise * normal(rng) : 0.0);
-      step_with_offset(body, ref, bref, bo, t + s, applied.data(), res.ctrl.data() + (size_t)(t + s - 1) * nu);
+      for (int k = 0; k < nu; ++k)
+        applied[(size_t)k] = off[k] + (opt.target_noise > 0 ? opt.target_noise * normal(rng) : 0.0);
+      samcon_detail::step_with_offset(body, ref, ctx.bref, ctx.bo, t + s, applied.data(),
+                                      res.ctrl.data() + (size_t)(t + s - 1) * nu);
       score.add_frame(body);
       failed = failed || score.last_frame_error() >= pd.fail_distance;
     }

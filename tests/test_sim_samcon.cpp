@@ -7,24 +7,16 @@
 #include <string>
 
 #include "sim/balance_tracker.h"
-#include "sim/bvh.h"
 #include "sim/samcon.h"
-#include "sim/skeleton.h"
 #include "tensor/parallel.h"
 #include "tensor/tensor.h"
+#include "test_sim_walk.h"
 
 using namespace t2m::sim;
+using t2m::sim::test::humanoid;
+using t2m::sim::test::walk;
 
 namespace {
-std::shared_ptr<const Humanoid> humanoid() {
-  static auto h = Humanoid::create();
-  return h;
-}
-const QposTrajectory& walk() {
-  static const QposTrajectory q = retarget(
-      *humanoid(), motion_from_bvh(read_bvh(std::string(T2M_SOURCE_DIR) + "/tests/fixtures/bvh/bandai_walk_60.bvh")));
-  return q;
-}
 // Balance-expert steps towards frames t0+1 .. t1 of the walk; returns the qpos after each step.
 std::vector<double> expert_steps(Env& env, const BalanceReference& br, int t0, int t1) {
   std::vector<double> ctrl(env.model()->nu), out;
