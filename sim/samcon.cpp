@@ -1,4 +1,5 @@
-// samcon.cpp — the window-by-window beam search of samcon.h and the replay of the path it keeps.
+// samcon.cpp — the pieces both searches share (samcon_window.h), and the window-by-window beam search of samcon.h
+// with the replay of the path it keeps.
 #include "sim/samcon.h"
 
 #include <omp.h>

@@ -1,5 +1,6 @@
-// samcon_window.h — internal to sim/samcon*.cpp: what a SAMCON candidate does in one control step and how a
-// simulated frame is scored against the reference (shared by the beam search and the receding-horizon search).
+// samcon_window.h — internal to sim/samcon*.cpp: what the beam search (samcon.h) and the receding-horizon search
+// (samcon_mpc.h) share: the search context, one candidate's simulation through a window, one control step with a
+// target offset, and the frame cost (all defined in samcon.cpp).
 #pragma once
 #include <memory>
 #include <vector>

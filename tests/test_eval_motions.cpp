@@ -18,6 +18,7 @@
 #include "sim/bvh.h"
 #include "sim/skeleton.h"
 #include "tensor/rng.h"
+#include "test_cli_util.h"
 #include "test_tensor_util.h"
 
 using namespace t2m;
@@ -218,23 +219,9 @@ TEST(EvaluateMotions, SelfReferenceFidIsZeroAndMetricsInRange) {
   expect_error([&] { eval::evaluate_motions(ev, few, Tensor(), p); }, {"evaluate_motions", "at least one batch of 32"});
 }
 
-namespace {
-
-std::string t2m_binary() { return (fs::read_symlink("/proc/self/exe").parent_path() / "t2m").string(); }
-
-int run(const std::string& args, const fs::path& log) {
-  std::string cmd = "'";
-  cmd.append(t2m_binary()).append("' ").append(args).append(" > '").append(log.string()).append("' 2>&1");
-  const int rc = std::system(cmd.c_str());
-  return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
-}
-
-std::string read(const fs::path& p) {
-  std::ifstream f(p);
-  return std::string((std::istreambuf_iterator<char>(f)), {});
-}
-
-}  // namespace
+using t2m::test::read_text;
+using t2m::test::run_t2m;
+using t2m::test::t2m_binary;
 
 TEST(EvalMotionsCommand, SyntheticDirectoryAndBadInput) {
   if (!fs::exists(t2m_binary())) GTEST_SKIP() << "t2m binary not built next to the test";
@@ -242,12 +229,12 @@ TEST(EvalMotionsCommand, SyntheticDirectoryAndBadInput) {
   const std::string ck = (w / "ev.t2mckpt").string();
   text::save_retrieval_checkpoint(tiny_evaluator(), ck);
   const fs::path out = w / "report.json";
-  ASSERT_EQ(run("eval motions '" + d.string() + "' --evaluator '" + ck + "' --reference '" + d.string() +
-                    "' --runs 2 --out '" + out.string() + "'",
-                w / "ok.log"),
+  ASSERT_EQ(run_t2m("eval motions '" + d.string() + "' --evaluator '" + ck + "' --reference '" + d.string() +
+                        "' --runs 2 --out '" + out.string() + "'",
+                    w / "ok.log"),
             0)
-      << read(w / "ok.log");
-  const json j = json::parse(read(out));
+      << read_text(w / "ok.log");
+  const json j = json::parse(read_text(out));
   EXPECT_EQ(j["runs"], 2);
   EXPECT_EQ(j["count"], 42);
   EXPECT_EQ(j["multimodality_prompts"], 2);
@@ -256,22 +243,23 @@ TEST(EvalMotionsCommand, SyntheticDirectoryAndBadInput) {
 
   // Bad input: one "t2m: ..." line, exit status 1, no report.
   const fs::path none = w / "none.json";
-  EXPECT_EQ(run("eval motions '" + (w / "missing").string() + "' --evaluator '" + ck + "' --reference none --out '" +
-                    none.string() + "'",
-                w / "bad1.log"),
+  EXPECT_EQ(run_t2m("eval motions '" + (w / "missing").string() + "' --evaluator '" + ck +
+                        "' --reference none --out '" + none.string() + "'",
+                    w / "bad1.log"),
             1);
-  const std::string bad1 = read(w / "bad1.log");
+  const std::string bad1 = read_text(w / "bad1.log");
   EXPECT_EQ(bad1.rfind("t2m: motions ", 0), 0u) << bad1;
   EXPECT_EQ(std::count(bad1.begin(), bad1.end(), '\n'), 1) << bad1;
-  EXPECT_EQ(run("eval motions '" + d.string() + "' --evaluator '" + (w / "nope.t2mckpt").string() +
-                    "' --reference none --out '" + none.string() + "'",
-                w / "bad2.log"),
+  EXPECT_EQ(run_t2m("eval motions '" + d.string() + "' --evaluator '" + (w / "nope.t2mckpt").string() +
+                        "' --reference none --out '" + none.string() + "'",
+                    w / "bad2.log"),
             1);
-  EXPECT_NE(read(w / "bad2.log").find("not found"), std::string::npos) << read(w / "bad2.log");
-  EXPECT_EQ(run("eval motions '" + d.string() + "' --real --evaluator '" + ck + "' --out '" + none.string() + "'",
-                w / "bad3.log"),
+  EXPECT_NE(read_text(w / "bad2.log").find("not found"), std::string::npos) << read_text(w / "bad2.log");
+  EXPECT_EQ(run_t2m("eval motions '" + d.string() + "' --real --evaluator '" + ck + "' --out '" + none.string() +
+                        "'",
+                    w / "bad3.log"),
             1);
-  EXPECT_NE(read(w / "bad3.log").find("not both"), std::string::npos) << read(w / "bad3.log");
+  EXPECT_NE(read_text(w / "bad3.log").find("not both"), std::string::npos) << read_text(w / "bad3.log");
   EXPECT_FALSE(fs::exists(none));
 }
 

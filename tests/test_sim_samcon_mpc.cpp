@@ -1,9 +1,13 @@
 // test_sim_samcon_mpc.cpp — the closed-loop SAMCON planner (sim/samcon_mpc.h) on the real 60-frame Bandai-Namco walk
 // of test_sim_samcon (tests/fixtures/bvh/bandai_walk_60.bvh): with no sampling it is the balance expert, bit for
 // bit; with sampling it walks the clip the expert falls on, also with noise on the applied targets that throws the
-// same search's open-loop path off; the result does not depend on the thread count; bad options are rejected.
+// same search's open-loop path off; the result does not depend on the thread count; bad options are rejected; and
+// `t2m track-pd --samcon-mpc` runs it (report, exported targets) and refuses flags that do not go together.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
+#include <filesystem>
+#include <nlohmann/json.hpp>
 #include <random>
 #include <string>
 
@@ -12,6 +16,7 @@
 #include "sim/samcon_mpc.h"
 #include "tensor/parallel.h"
 #include "tensor/tensor.h"
+#include "test_cli_util.h"
 #include "test_sim_walk.h"
 
 using namespace t2m::sim;
@@ -124,4 +129,38 @@ TEST(SimSamconMpc, BadOptionsThrow) {
   QposTrajectory bad = walk();
   bad.qvel.pop_back();
   EXPECT_THROW(track_samcon_mpc(humanoid(), bad, SamconMpcOptions{}), t2m::Error);
+}
+
+TEST(SimSamconMpc, TrackPdCommand) {
+  namespace fs = std::filesystem;
+  using t2m::test::read_text;
+  using t2m::test::run_t2m;
+  if (!fs::exists(t2m::test::t2m_binary())) GTEST_SKIP() << "t2m binary not built next to the test";
+  const fs::path w = fs::temp_directory_path() / ("t2m_samcon_mpc_cli_" + std::to_string(::getpid()));
+  fs::remove_all(w);
+  fs::create_directories(w);
+  const std::string bvh = "'" + std::string(T2M_SOURCE_DIR) + "/tests/fixtures/bvh/bandai_walk_60.bvh'";
+  const fs::path out = w / "report.json", exp = w / "exp";
+  ASSERT_EQ(run_t2m("track-pd --samcon-mpc --mpc-samples 4 --mpc-horizon 1 --target-noise 0.01 --threads 1 --bvh " +
+                        bvh + " --out '" + out.string() + "' --export-dir '" + exp.string() + "'",
+                    w / "ok.log"),
+            0)
+      << read_text(w / "ok.log");
+  const nlohmann::json j = nlohmann::json::parse(read_text(out));
+  EXPECT_EQ(j["summary"]["controller"], "samcon-mpc");
+  EXPECT_EQ(j["summary"]["clips"], 1);
+  const nlohmann::json c = nlohmann::json::parse(read_text(exp / "bandai_walk_60.ctrl.json"));
+  EXPECT_EQ(c["format"], "t2m-ctrl-1");
+  EXPECT_EQ(c["ctrl"].size(), (size_t)(walk().frames - 1) * c["nu"].get<size_t>());
+  // Flags that do not go together: one "t2m: ..." line, non-zero exit, no report.
+  const fs::path none = w / "none.json";
+  for (const std::string& bad : {std::string("--samcon --samcon-mpc"), std::string("--target-noise 0.1"),
+                                 std::string("--samcon-mpc --mpc-carry 2")}) {
+    EXPECT_NE(run_t2m("track-pd " + bad + " --bvh " + bvh + " --out '" + none.string() + "'", w / "bad.log"), 0)
+        << bad;
+    const std::string log = read_text(w / "bad.log");
+    EXPECT_EQ(log.rfind("t2m: ", 0), 0u) << log;
+    EXPECT_FALSE(fs::exists(none)) << bad;
+  }
+  fs::remove_all(w);
 }

@@ -399,8 +399,10 @@ void add_sim_commands(CLI::App& app) {
   p->add_option("--mpc-horizon", pd.mo.horizon, "samcon-mpc: look-ahead in windows")->capture_default_str()->check(CLI::PositiveNumber);
   p->add_option("--mpc-carry", pd.mo.carry, "samcon-mpc: share of the previous offset new candidates start from")->capture_default_str()->check(CLI::Range(0.0, 1.0));
   p->add_option("--target-noise", pd.mo.target_noise, "samcon-mpc: Gaussian noise on every applied target, rad (robustness)")->capture_default_str()->check(CLI::Range(0.0, 1.0));
-  p->callback([] {
+  p->callback([p] {
     if (pd.samcon && pd.mpc) throw Error("track-pd: --samcon and --samcon-mpc exclude each other");
+    for (const char* o : {"--mpc-samples", "--mpc-horizon", "--mpc-carry", "--target-noise"})
+      if (!pd.mpc && p->count(o) > 0) throw Error(std::string("track-pd: ") + o + " needs --samcon-mpc");
     if ((pd.samcon || pd.mpc) && pd.assist != 0) throw Error("track-pd: --samcon / --samcon-mpc do not take --assist");
     run_track_pd(pd);
   });
