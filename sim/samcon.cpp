@@ -17,18 +17,10 @@
 #include "tensor/tensor.h"
 
 namespace t2m::sim {
-namespace samcon_detail {
+namespace {
 
-// The expert's targets towards frame t plus the offset, clamped; the env advances one control step.
-void step_with_offset(Env& env, const QposTrajectory& ref, const BalanceReference& bref, const BalanceOptions& bo,
-                      int t, const double* offset, double* ctrl) {
-  const mjModel* m = env.model();
-  balance_targets(env, bref.frame(ref, t), bo, ctrl);
-  for (int k = 0; k < m->nu; ++k) ctrl[k] += offset[k];
-  clamp_to_ctrlrange(m, ctrl);
-  env.step_targets(ctrl, nullptr);
-}
-
+// mean_j |p_sim,j - p_ref,j|² over the tracked bodies against ref_pos [J, 3] (one reference frame); the largest
+// |p_sim,j - p_ref,j| in *worst.
 double frame_cost(const mjData* d, const std::vector<int>& bodies, const float* ref_pos, double* worst) {
   double sum = 0, mx = 0;
   for (size_t j = 0; j < bodies.size(); ++j) {
@@ -42,6 +34,20 @@ double frame_cost(const mjData* d, const std::vector<int>& bodies, const float* 
   }
   *worst = std::sqrt(mx);
   return sum / (double)bodies.size();
+}
+
+}  // namespace
+
+namespace samcon_detail {
+
+// The expert's targets towards frame t plus the offset, clamped; the env advances one control step.
+void step_with_offset(Env& env, const QposTrajectory& ref, const BalanceReference& bref, const BalanceOptions& bo,
+                      int t, const double* offset, double* ctrl) {
+  const mjModel* m = env.model();
+  balance_targets(env, bref.frame(ref, t), bo, ctrl);
+  for (int k = 0; k < m->nu; ++k) ctrl[k] += offset[k];
+  clamp_to_ctrlrange(m, ctrl);
+  env.step_targets(ctrl, nullptr);
 }
 
 SearchContext make_search_context(const char* who, const std::shared_ptr<const Humanoid>& h,

@@ -1,6 +1,6 @@
 // samcon_window.h — internal to sim/samcon*.cpp: what the beam search (samcon.h) and the receding-horizon search
 // (samcon_mpc.h) share: the search context, one candidate's simulation through a window, one control step with a
-// target offset, and the frame cost (all defined in samcon.cpp).
+// target offset (all defined in samcon.cpp).
 #pragma once
 #include <memory>
 #include <vector>
@@ -25,7 +25,8 @@ SearchContext make_search_context(const char* who, const std::shared_ptr<const H
                                   const QposTrajectory& ref, const BalanceOptions& bo);
 
 // A candidate: `steps` control steps from the env's current state towards frames t+1 .. t+steps with the offset
-// [nu] held. Returns the summed frame_cost; *worst = the largest body error on any step (infinite on divergence).
+// [nu] held. Returns the sum over steps of mean_j |p_sim,j - p_ref,j|² (the tracked bodies); *worst = the largest
+// body error on any step (infinite on divergence).
 double simulate_candidate(Env& env, const SearchContext& c, const QposTrajectory& ref, int t, int steps,
                           const double* offset, double* worst);
 
@@ -33,9 +34,5 @@ double simulate_candidate(Env& env, const SearchContext& c, const QposTrajectory
 // the actuator ranges and written to ctrl [nu]; the env advances.
 void step_with_offset(Env& env, const QposTrajectory& ref, const BalanceReference& bref, const BalanceOptions& bo,
                       int t, const double* offset, double* ctrl);
-
-// mean_j |p_sim,j - p_ref,j|² over the tracked bodies of the env's current state against ref_pos [J, 3] (one
-// reference frame); the largest |p_sim,j - p_ref,j| in *worst.
-double frame_cost(const mjData* d, const std::vector<int>& bodies, const float* ref_pos, double* worst);
 
 }  // namespace t2m::sim::samcon_detail

@@ -76,7 +76,6 @@ TEST(SimSamconMpc, ClosedLoopSurvivesNoiseThatBreaksTheOpenLoopPath) {
   int open_ok = 0;
   for (uint64_t seed = 1; seed <= 3; ++seed) {
     Env env(humanoid());
-    const BalanceReference br = balance_reference(*humanoid(), walk());
     TrackingScorer score(*humanoid(), walk());
     env.reset(walk().qpos.data(), walk().qvel.data(), nullptr);
     score.add_frame(env);
