@@ -25,6 +25,7 @@
 #include "models/data/splits.h"
 #include "sim/balance_tracker.h"
 #include "sim/samcon.h"
+#include "sim/ctrl_file.h"
 #include "sim/samcon_mpc.h"
 #include "sim/bvh.h"
 #include "sim/env.h"
@@ -223,9 +224,8 @@ void run_track_pd(const PdArgs& a) {
       auto export_ctrl = [&](int searched, const std::vector<double>& ctrl, const std::vector<double>& offset) {
         row["frames_searched"] = searched;
         if (!a.export_dir.empty())
-          write_json(a.export_dir + "/" + clips[i].first + ".ctrl.json",
-                     {{"format", "t2m-ctrl-1"}, {"fps", ref.fps}, {"nu", (int)(ctrl.size() / std::max(ref.frames - 1, 1))},
-                      {"frames_searched", searched}, {"ctrl", ctrl}, {"offset", offset}});
+          sim::save_ctrl_json(sim::CtrlSequence{ref.fps, h->model()->nu, searched, ctrl, offset},
+                              a.export_dir + "/" + clips[i].first + ".ctrl.json");
       };
       if (a.samcon) {
         sim::SamconOptions so = a.so;

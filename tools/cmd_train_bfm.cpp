@@ -91,7 +91,9 @@ void run_train_bfm(const TrainBfmArgs& a, CLI::App* app) {
         {"--z-dim", [&] { f.fb.z_dim = g.fb.z_dim; }},
         {"--track-window", [&] { f.fb.track_window = g.fb.track_window; }},
         {"--collect-every", [&] { f.collect_every = g.collect_every; }},
-        {"--online-capacity", [&] { f.online_capacity = g.online_capacity; }}};
+        {"--online-capacity", [&] { f.online_capacity = g.online_capacity; }},
+        {"--demos", [&] { f.demo_dir = g.demo_dir; }},
+        {"--demo-fraction", [&] { f.demo_fraction = g.demo_fraction; }}};
     for (const auto& [flag, set] : flags)
       if (app->count(flag) > 0) set();
   }
@@ -143,6 +145,15 @@ void run_train_bfm(const TrainBfmArgs& a, CLI::App* app) {
     if (collected)
       std::fprintf(stderr, "train bfm: %lld seed transitions (noisy %s expert) in %.1f s = %.0f transitions/s\n",
                    (long long)cfg.seed_transitions, cfg.seed_expert.c_str(), s, cfg.seed_transitions / std::max(s, 1e-9));
+    if (const auto* d = tr.demo_buffer()) {
+      int owned = 0;
+      for (char o : tr.planner_owned()) owned += o;
+      std::fprintf(stderr,
+                   "train bfm: %lld demonstration rows from %d planner runs in %s (%d unfinished, %d files not naming "
+                   "a training clip); %d of %d reference clips are the planner's (no expert labels cloned there)\n",
+                   (long long)d->size(), tr.demo_files(), cfg.demo_dir.c_str(), tr.demo_failed(), tr.demo_skipped(),
+                   owned, refs.clips());
+    }
   }
 
   t2m::nn::TrainLog log(dir + "/log.jsonl", tr.step());
@@ -238,6 +249,14 @@ void add_train_bfm(CLI::App& app) {
       ->capture_default_str();
   c->add_option("--collect-every", cfg.collect_every, "updates between online rounds")->capture_default_str();
   c->add_option("--online-capacity", cfg.online_capacity, "online replay capacity")->capture_default_str();
+  c->add_option("--demos", cfg.demo_dir,
+                "planner demonstrations: a `t2m track-pd --samcon-mpc --export-dir` directory (NAME.ctrl.json of "
+                "training clips); their rows join the seed data with the planner's labels")
+      ->check(CLI::ExistingDirectory);
+  c->add_option("--demo-fraction", cfg.demo_fraction,
+                "with --demos: share of the seed rows of each batch drawn from the demonstrations")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1.0));
   c->callback([c] { run_train_bfm(a, c); });
 }
 

@@ -1,6 +1,7 @@
 // replay_buffer.cpp — ring storage, uniform sampling and the checkpoint file of the replay buffer.
 #include "models/bfm/replay_buffer.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 
@@ -124,11 +125,10 @@ void ReplayBuffer::gather(const int64_t* index, int64_t n, ReplayBatch& out) con
   }
 }
 
-void ReplayBuffer::sample_into(int64_t n, Generator& gen, ReplayBatch& out) const {
+void ReplayBuffer::draw_rows(int64_t n, Generator& gen, int64_t* idx) const {
   if (n < 1) throw Error("replay buffer: sample of " + num(n) + " rows (must be >= 1)");
   if (size_ == 0) throw Error("replay buffer: sample from an empty buffer");
   // Two 64-bit draws per Philox counter; index = draw mod size (bias < size / 2^64).
-  std::vector<int64_t> idx((size_t)n);
   const uint64_t base = gen.advance((uint64_t)(n + 1) / 2);
   for (int64_t k = 0; k < n; k += 2) {
     uint32_t r[4];
@@ -136,7 +136,28 @@ void ReplayBuffer::sample_into(int64_t n, Generator& gen, ReplayBatch& out) cons
     idx[k] = (int64_t)((((uint64_t)r[1] << 32) | r[0]) % (uint64_t)size_);
     if (k + 1 < n) idx[k + 1] = (int64_t)((((uint64_t)r[3] << 32) | r[2]) % (uint64_t)size_);
   }
+}
+
+void ReplayBuffer::sample_into(int64_t n, Generator& gen, ReplayBatch& out) const {
+  std::vector<int64_t> idx((size_t)std::max<int64_t>(n, 0));
+  draw_rows(n, gen, idx.data());
   gather(idx.data(), n, out);
+}
+
+bool ReplayBuffer::sample_where_into(int64_t n, Generator& gen, const std::function<bool(int64_t)>& keep,
+                                     ReplayBatch& out) const {
+  std::vector<int64_t> idx((size_t)std::max<int64_t>(n, 0)), kept;
+  kept.reserve(idx.size());
+  for (int dry = 0; (int64_t)kept.size() < n;) {
+    draw_rows(n, gen, idx.data());
+    const size_t before = kept.size();
+    for (int64_t k = 0; k < n && (int64_t)kept.size() < n; ++k)
+      if (keep(idx[(size_t)k])) kept.push_back(idx[(size_t)k]);
+    dry = kept.size() == before ? dry + 1 : 0;
+    if (dry == 64) return false;
+  }
+  gather(kept.data(), n, out);
+  return true;
 }
 
 ReplayBatch ReplayBuffer::sample(int64_t n, Generator& gen) const {

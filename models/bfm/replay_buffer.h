@@ -21,6 +21,7 @@
 // do not agree (size > capacity, cursor out of range, tensor shapes), non-finite values, not_done outside {0, 1}.
 #pragma once
 #include <cstdint>
+#include <functional>
 #include <string>
 
 #include "tensor/rng.h"
@@ -63,6 +64,11 @@ class ReplayBuffer {
   ReplayBatch sample(int64_t n, Generator& gen) const;
   // The same into preallocated tensors of the right shapes (reuses their storage).
   void sample_into(int64_t n, Generator& gen, ReplayBatch& out) const;
+  // n rows drawn uniformly with replacement among the rows with keep(row) true: rounds of n draws as in
+  // sample_into, the accepted rows kept in draw order until n are accepted. Gives up (returns false, out
+  // unchanged) after 64 rounds in a row without an accepted row.
+  bool sample_where_into(int64_t n, Generator& gen, const std::function<bool(int64_t row)>& keep,
+                         ReplayBatch& out) const;
   // Rows by index (each in [0, size)), e.g. for tests.
   void gather(const int64_t* index, int64_t n, ReplayBatch& out) const;
 
@@ -80,6 +86,7 @@ class ReplayBuffer {
 
  private:
   void check_row(int64_t i) const;
+  void draw_rows(int64_t n, Generator& gen, int64_t* idx) const;  // n uniform row indices (checks n, size)
   int64_t capacity_;
   int obs_dim_, action_dim_;
   int64_t size_ = 0, cursor_ = 0, added_ = 0;

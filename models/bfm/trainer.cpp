@@ -2,11 +2,13 @@
 // (see trainer.h).
 #include "models/bfm/trainer.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 
 #include "autograd/no_grad.h"
+#include "models/bfm/planner_demos.h"
 #include "nn/checkpoint.h"
 #include "tensor/ops.h"
 
@@ -25,7 +27,7 @@ uint64_t stream_seed(uint64_t seed, uint64_t k) {
 }  // namespace
 
 json BfmTrainConfig::to_json() const {
-  return {{"fb", fb.to_json()},
+  json j = {{"fb", fb.to_json()},
           {"seed", seed},
           {"ref_clips", ref_clips},
           {"static_holds", static_holds},
@@ -46,6 +48,8 @@ json BfmTrainConfig::to_json() const {
           {"dagger", dagger},
           {"z_track", z_track},
           {"z_goal", z_goal}};
+  if (!demo_dir.empty()) j["demo_dir"] = demo_dir, j["demo_fraction"] = demo_fraction;  // older runs: no keys
+  return j;
 }
 
 BfmTrainConfig BfmTrainConfig::from_json(const json& j) {
@@ -76,6 +80,8 @@ BfmTrainConfig BfmTrainConfig::from_json(const json& j) {
       else if (k == "dagger") c.dagger = v.get<bool>();
       else if (k == "z_track") c.z_track = v.get<double>();
       else if (k == "z_goal") c.z_goal = v.get<double>();
+      else if (k == "demo_dir") c.demo_dir = v.get<std::string>();
+      else if (k == "demo_fraction") c.demo_fraction = v.get<double>();
       else throw Error("bfm trainer: unknown config key '" + k + "'");
     } catch (const json::exception& e) {
       throw Error("bfm trainer: config key '" + k + "': " + e.what());
@@ -97,6 +103,7 @@ void BfmTrainConfig::validate() const {
   if (!(z_track >= 0 && z_goal >= 0 && z_track + z_goal <= 1)) bad("z_track, z_goal in [0, 1] with sum <= 1");
   if (ref_clips < 0) bad("ref_clips must be >= 0");
   if (static_holds < 0) bad("static_holds must be >= 0");
+  if (!(demo_fraction >= 0 && demo_fraction <= 1)) bad("demo_fraction must be in [0, 1]");
   try {  // the tracker names are set_expert's (models/bfm/collect)
     CollectOptions probe;
     set_expert(probe, seed_expert);
@@ -178,6 +185,7 @@ void BfmTrainer::prepare_seed(const std::function<void(int64_t, int64_t)>& on_pr
       if (seed_->size() != cfg_.seed_transitions || seed_->obs_dim() != cfg_.fb.obs_dim ||
           seed_->action_dim() != cfg_.fb.action_dim || seed_->has_expert_labels() != cfg_.dagger)
         throw Error("bfm trainer: seed buffer " + seed_path() + " does not match its description");
+      prepare_demos();
       return;
     }
   }
@@ -197,6 +205,22 @@ void BfmTrainer::prepare_seed(const std::function<void(int64_t, int64_t)>& on_pr
   }
   seed_->save(seed_path());
   nn::write_file_atomic(id_path, id.dump(1) + "\n");
+  prepare_demos();
+}
+
+void BfmTrainer::prepare_demos() {
+  if (cfg_.demo_dir.empty()) return;
+  const PlannerDemos d = load_planner_demos(cfg_.demo_dir, refs_);
+  if (resumed_ && ts_->user.value("demo_rows", (int64_t)-1) != d.rows)
+    throw Error("bfm trainer: resuming, but " + cfg_.demo_dir + " gives " + std::to_string(d.rows) +
+                " demonstration rows, the state was trained on " +
+                std::to_string(ts_->user.value("demo_rows", (int64_t)-1)));
+  demo_ = std::make_unique<ReplayBuffer>(d.rows, cfg_.fb.obs_dim, cfg_.fb.action_dim, /*with_expert_labels=*/true);
+  replay_planner_demos(h_, refs_, d, *demo_);
+  owned_ = planner_owned_clips(refs_, d);
+  any_free_ = std::find(owned_.begin(), owned_.end(), 0) != owned_.end();
+  ts_->user["demo_rows"] = d.rows;
+  demo_files_ = (int)d.files.size(), demo_failed_ = d.failed_runs, demo_skipped_ = (int)d.skipped.size();
 }
 
 BfmStepStats BfmTrainer::train_step() {
@@ -213,51 +237,71 @@ BfmStepStats BfmTrainer::train_step() {
   // FB batch: seed rows then online rows.
   const int64_t B = cfg_.batch;
   const int64_t n_on = online_->size() >= B ? std::llround(B * cfg_.online_fraction) : 0;
-  const int64_t n_seed = B - n_on;
+  const int64_t n_seed_all = B - n_on;
+  const int64_t n_demo = demo_ ? std::llround(n_seed_all * cfg_.demo_fraction) : 0;
+  const int64_t n_seed = n_seed_all - n_demo;
   const auto ensure = [&](ReplayBatch& b, int64_t n) {
     if (!b.obs.defined() || b.obs.size(0) != n) b = make_replay_batch(n, cfg_.fb.obs_dim, cfg_.fb.action_dim);
   };
   FbBatch fb;
+  std::vector<const ReplayBatch*> parts;  // seed, demo, online rows
   if (n_seed > 0) {
     ensure(seed_batch_, n_seed);
     seed_->sample_into(n_seed, gen_data_, seed_batch_);
+    parts.push_back(&seed_batch_);
+  }
+  if (n_demo > 0) {
+    ensure(demo_batch_, n_demo);
+    demo_->sample_into(n_demo, gen_data_, demo_batch_);
+    parts.push_back(&demo_batch_);
   }
   if (n_on > 0) {
     ensure(online_batch_, n_on);
     online_->sample_into(n_on, gen_data_, online_batch_);
+    parts.push_back(&online_batch_);
   }
-  if (n_on == 0) {
-    fb.obs = seed_batch_.obs, fb.action = seed_batch_.action, fb.next_obs = seed_batch_.next_obs;
-    fb.not_done = seed_batch_.not_done;
-  } else if (n_seed == 0) {
-    fb.obs = online_batch_.obs, fb.action = online_batch_.action, fb.next_obs = online_batch_.next_obs;
-    fb.not_done = online_batch_.not_done;
-  } else {
-    fb.obs = concat({seed_batch_.obs, online_batch_.obs}, 0);
-    fb.action = concat({seed_batch_.action, online_batch_.action}, 0);
-    fb.next_obs = concat({seed_batch_.next_obs, online_batch_.next_obs}, 0);
-    fb.not_done = concat({seed_batch_.not_done, online_batch_.not_done}, 0);
-  }
+  const auto join = [&](Tensor ReplayBatch::*field) {
+    std::vector<Tensor> ts;
+    for (const ReplayBatch* p : parts) ts.push_back(p->*field);
+    return ts.size() == 1 ? ts[0] : concat(ts, 0);
+  };
+  fb.obs = join(&ReplayBatch::obs), fb.action = join(&ReplayBatch::action);
+  fb.next_obs = join(&ReplayBatch::next_obs), fb.not_done = join(&ReplayBatch::not_done);
   {
     ag::NoGradGuard ng;
     fb.z = sample_training_z(B, ZMix{cfg_.z_track, cfg_.z_goal}, refs_, L, fb.next_obs, enc, cfg_.fb.z_dim, gen_z_);
     if (cfg_.bc_batch > 0) {
       // BC rows: seed rows, plus (DAgger) the policy's own online states relabelled by the expert.
+      // With demos: a share of the seed rows from the planner; expert labels only on clips it does not own.
       const int64_t n_bc_on = cfg_.dagger && online_->size() >= cfg_.bc_batch ? cfg_.bc_batch / 2 : 0;
-      const int64_t n_bc_seed = cfg_.bc_batch - n_bc_on;
-      ensure(bc_batch_, n_bc_seed);
-      seed_->sample_into(n_bc_seed, gen_data_, bc_batch_);
-      Tensor clip = bc_batch_.clip, frame = bc_batch_.frame;
-      fb.bc_obs = bc_batch_.obs;
-      fb.bc_action = cfg_.dagger ? bc_batch_.expert_action : bc_batch_.action;
-      if (n_bc_on > 0) {
-        ensure(bc_online_batch_, n_bc_on);
-        online_->sample_into(n_bc_on, gen_data_, bc_online_batch_);
-        fb.bc_obs = concat({fb.bc_obs, bc_online_batch_.obs}, 0);
-        fb.bc_action = concat({fb.bc_action, bc_online_batch_.expert_action}, 0);
-        clip = concat({clip, bc_online_batch_.clip}, 0);
-        frame = concat({frame, bc_online_batch_.frame}, 0);
+      const int64_t n_bc_demo = demo_ ? std::llround((cfg_.bc_batch - n_bc_on) * cfg_.demo_fraction) : 0;
+      const int64_t n_bc_seed = cfg_.bc_batch - n_bc_on - n_bc_demo;
+      std::vector<const ReplayBatch*> bc_parts;  // seed, demo, online rows
+      // Expert rows with demos: on clips the planner does not own; where none is found (every clip owned, or an
+      // early online buffer without such rows) the planner's rows stand in.
+      const auto draw = [&](const ReplayBuffer& b, int64_t n, bool expert_rows, ReplayBatch& out) {
+        ensure(out, n);
+        if (demo_ && expert_rows) {
+          const auto free = [&](int64_t row) { return !owned_[(size_t)b.clip_at(row)]; };
+          if (!any_free_ || !b.sample_where_into(n, gen_data_, free, out)) demo_->sample_into(n, gen_data_, out);
+        } else {
+          b.sample_into(n, gen_data_, out);
+        }
+        bc_parts.push_back(&out);
+      };
+      if (n_bc_seed > 0) draw(*seed_, n_bc_seed, true, bc_batch_);
+      if (n_bc_demo > 0) draw(*demo_, n_bc_demo, false, bc_demo_batch_);
+      if (n_bc_on > 0) draw(*online_, n_bc_on, true, bc_online_batch_);
+      // Targets: the expert's (or planner's) labels with dagger, else the seed actions (no demos, no online rows).
+      const bool labels = cfg_.dagger || demo_;
+      std::vector<Tensor> obs, act, clips, frames;
+      for (const ReplayBatch* p : bc_parts) {
+        obs.push_back(p->obs), clips.push_back(p->clip), frames.push_back(p->frame);
+        act.push_back(labels && p->expert_action.defined() ? p->expert_action : p->action);
       }
+      const auto cat = [](const std::vector<Tensor>& ts) { return ts.size() == 1 ? ts[0] : concat(ts, 0); };
+      fb.bc_obs = cat(obs), fb.bc_action = cat(act);
+      const Tensor clip = cat(clips).contiguous(), frame = cat(frames).contiguous();
       fb.bc_z = window_latents(refs_, clip.data<int64_t>(), frame.data<int64_t>(), cfg_.bc_batch, L, enc);
     }
   }

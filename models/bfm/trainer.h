@@ -16,6 +16,10 @@
 //   3. z: sample_training_z with (z_track, z_goal), the batch's next_obs for goals ("z" gen);
 //   4. BC batch: bc_batch rows with bc_z = Eq 2 on the row's own reference window ("data"): seed rows (obs, action),
 //      or with dagger (obs, expert label), half of them from the online buffer once it holds >= bc_batch rows;
+//   with demo_dir, the seed rows of steps 2 and 4 are split: a share demo_fraction from the planner's
+//   demonstrations (labelled with its clean action), the rest from the seed buffer; expert-labelled BC rows (seed
+//   and online) are drawn only on clips whose content the planner does not own (demonstration rows stand in
+//   where there are none);
 //   5. FbAgent::update(batch, "agent" gen).
 // Files in dir: state.t2mckpt (nn::TrainState of the agent + generators + counters; atomic), online-STEP.t2mckpt
 // (the online buffer saved with that state; older ones are removed after the state is written), seed_buffer.t2mckpt.
@@ -28,6 +32,7 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 #include "models/bfm/collect.h"
 #include "models/bfm/fb_agent.h"
@@ -62,6 +67,11 @@ struct BfmTrainConfig {
   bool dagger = true;               // BC targets = the expert's labels; half the BC rows from the policy's own
                                     // online states, relabelled by the expert (DAgger); false: seed actions only
   double z_track = 0.5, z_goal = 0.2;
+  std::string demo_dir;             // planner demonstrations (models/bfm/planner_demos.h; "" = none): their rows
+                                    // join the seed data with the planner's labels
+  double demo_fraction = 0.5;       // with demos: the share of the seed-data rows of the FB and BC batches drawn
+                                    // from the demonstrations; BC rows from the expert (seed and DAgger) are then
+                                    // only drawn on clips the planner does not own (planner_owned_clips)
 
   nlohmann::json to_json() const;
   static BfmTrainConfig from_json(const nlohmann::json& j);  // missing keys keep defaults; unknown keys: Error
@@ -82,6 +92,8 @@ class BfmTrainer {
 
   bool resumed() const { return resumed_; }
   // Collects (or loads) the seed buffer; on_progress(done, total) is called between chunks.
+  // With demo_dir, also replays the demonstrations into the demo buffer (checked against the count saved in the
+  // state on resume).
   void prepare_seed(const std::function<void(int64_t, int64_t)>& on_progress = {});
   BfmStepStats train_step();
   void save();
@@ -90,6 +102,12 @@ class BfmTrainer {
   FbAgent& agent() { return *agent_; }
   const ReplayBuffer& seed_buffer() const { return *seed_; }
   const ReplayBuffer& online_buffer() const { return *online_; }
+  const ReplayBuffer* demo_buffer() const { return demo_.get(); }  // nullptr without demo_dir
+  const std::vector<char>& planner_owned() const { return owned_; }  // per reference clip (empty without demos)
+  // Demonstration runs used, of those the planner did not finish, ctrl files not naming a reference clip.
+  int demo_files() const { return demo_files_; }
+  int demo_failed() const { return demo_failed_; }
+  int demo_skipped() const { return demo_skipped_; }
   const BfmTrainConfig& config() const { return cfg_; }
   std::string state_path() const { return dir_ + "/state.t2mckpt"; }
   std::string seed_path() const { return dir_ + "/seed_buffer.t2mckpt"; }
@@ -102,10 +120,14 @@ class BfmTrainer {
   std::unique_ptr<FbAgent> agent_;
   std::unique_ptr<nn::TrainState> ts_;
   Generator gen_data_, gen_z_, gen_agent_, gen_collect_, gen_seed_;
-  std::unique_ptr<ReplayBuffer> seed_, online_;
+  std::unique_ptr<ReplayBuffer> seed_, online_, demo_;
+  std::vector<char> owned_;  // planner-owned reference clips (with demos)
+  bool any_free_ = false;    // some clip is not owned
+  int demo_files_ = 0, demo_failed_ = 0, demo_skipped_ = 0;
   std::unique_ptr<TrackingCollector> collector_;
   bool resumed_ = false;
-  ReplayBatch seed_batch_, online_batch_, bc_batch_, bc_online_batch_;
+  ReplayBatch seed_batch_, online_batch_, bc_batch_, bc_online_batch_, demo_batch_, bc_demo_batch_;
+  void prepare_demos();
 };
 
 // The encoder / policy callbacks of collect.h bound to an agent.
