@@ -151,10 +151,23 @@ TEST(SimSamconMpc, TrackPdCommand) {
   const nlohmann::json c = nlohmann::json::parse(read_text(exp / "bandai_walk_60.ctrl.json"));
   EXPECT_EQ(c["format"], "t2m-ctrl-1");
   EXPECT_EQ(c["ctrl"].size(), (size_t)(walk().frames - 1) * c["nu"].get<size_t>());
+  // --resume skips the clip whose NAME.ctrl.json is there; its files stay as they were.
+  const std::string before = read_text(exp / "bandai_walk_60.qpos.json");
+  ASSERT_EQ(run_t2m("track-pd --samcon-mpc --mpc-samples 4 --mpc-horizon 1 --threads 1 --resume --bvh " + bvh +
+                        " --out '" + out.string() + "' --export-dir '" + exp.string() + "'",
+                    w / "resume.log"),
+            0)
+      << read_text(w / "resume.log");
+  const nlohmann::json jr = nlohmann::json::parse(read_text(out));
+  EXPECT_EQ(jr["summary"]["clips_skipped"], 1);
+  EXPECT_EQ(jr["summary"]["clips_ok"], 0);
+  EXPECT_EQ(read_text(exp / "bandai_walk_60.qpos.json"), before);
   // Flags that do not go together: one "t2m: ..." line, non-zero exit, no report.
   const fs::path none = w / "none.json";
   for (const std::string& bad : {std::string("--samcon --samcon-mpc"), std::string("--target-noise 0.1"),
-                                 std::string("--samcon-mpc --mpc-carry 2")}) {
+                                 std::string("--samcon-mpc --mpc-carry 2"), std::string("--samcon-mpc --resume"),
+                                 std::string("--resume --export-dir '" + exp.string() + "'"),
+                                 std::string("--content walk"), std::string("--every 0")}) {
     EXPECT_NE(run_t2m("track-pd " + bad + " --bvh " + bvh + " --out '" + none.string() + "'", w / "bad.log"), 0)
         << bad;
     const std::string log = read_text(w / "bad.log");

@@ -22,6 +22,7 @@
 #include <string>
 #include <vector>
 
+#include "models/data/dataset.h"
 #include "models/data/splits.h"
 #include "sim/balance_tracker.h"
 #include "sim/samcon.h"
@@ -50,6 +51,8 @@ struct ClipArgs {
   std::string clips_dir;
   std::string split = "all";
   int max_clips = 0;
+  std::vector<std::string> content;  // content labels kept (empty = all)
+  int every = 1;                     // every k-th clip of the selection
   int threads = 0;
   std::string out;
 };
@@ -59,6 +62,11 @@ void add_clip_options(CLI::App* c, ClipArgs& a, const char* default_split) {
   c->add_option("--bvh", a.bvh, "BVH file(s) to use instead of a clip directory");
   c->add_option("--clips", a.clips_dir, "directory searched recursively for *.bvh (default: the t2m cache)");
   c->add_option("--split", a.split, "all | train | val | test | take0")->capture_default_str();
+  c->add_option("--content", a.content, "keep only clips of these content labels (comma-separated, e.g. walk,run)")
+      ->delimiter(',');
+  c->add_option("--every", a.every, "keep every k-th of the selected clips (by name, from the first)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
   c->add_option("--max-clips", a.max_clips, "use at most N clips (0 = all), after sorting by name");
   c->add_option("--threads", a.threads, "OpenMP threads (0 = default)");
   c->add_option("--out", a.out, "write a JSON summary here");
@@ -100,6 +108,22 @@ std::vector<std::pair<std::string, std::string>> select_clips(const ClipArgs& a)
     const auto splits = t2m::data::assign_splits(names);
     for (auto& c : all)
       if (splits.at(c.first) == want) sel.push_back(c);
+  }
+  if (!a.content.empty()) {  // content labels of the names (dataset-N_<content>_<style>_<take>)
+    std::vector<std::pair<std::string, std::string>> kept;
+    for (auto& c : sel) {
+      int dataset = 0, take = 0;
+      std::string content, style;
+      if (t2m::data::parse_clip_name(c.first, &dataset, &content, &style, &take) &&
+          std::find(a.content.begin(), a.content.end(), content) != a.content.end())
+        kept.push_back(c);
+    }
+    sel = kept;
+  }
+  if (a.every > 1) {
+    std::vector<std::pair<std::string, std::string>> kept;
+    for (size_t i = 0; i < sel.size(); i += (size_t)a.every) kept.push_back(sel[i]);
+    sel = kept;
   }
   if (a.max_clips > 0 && (int)sel.size() > a.max_clips) sel.resize(a.max_clips);
   if (sel.empty()) throw Error("no clips selected (split '" + a.split + "')");
@@ -195,6 +219,7 @@ struct PdArgs {
   bool mpc = false;  // --samcon-mpc: the closed-loop search (window, sigma and seed from so)
   sim::SamconMpcOptions mo;
   std::string export_dir;
+  bool resume = false;  // skip clips whose NAME.ctrl.json is in export_dir (a search's finished clip)
 };
 
 void run_track_pd(const PdArgs& a) {
@@ -218,14 +243,22 @@ void run_track_pd(const PdArgs& a) {
 #pragma omp parallel for schedule(dynamic) if (!search)
   for (int i = 0; i < N; ++i) {
     json row = {{"name", clips[i].first}};
+    const std::string ctrl_path = a.export_dir + "/" + clips[i].first + ".ctrl.json";
+    if (a.resume && fs::exists(ctrl_path)) {  // finished by an earlier invocation: its seed was seed + i too
+      row["skipped"] = "exported earlier";
+      rows[i] = row;
+#pragma omp critical
+      prog.tick();
+      continue;
+    }
     try {
       const sim::QposTrajectory ref = sim::retarget(*h, load_motion(clips[i].second));
-      // The searches' actuator targets per control step (a demonstration) -> NAME.ctrl.json.
+      // The searches' actuator targets per control step (a demonstration) -> NAME.ctrl.json, written after the
+      // clip's other files: its presence marks a finished clip (--resume).
+      sim::CtrlSequence demo;
       auto export_ctrl = [&](int searched, const std::vector<double>& ctrl, const std::vector<double>& offset) {
         row["frames_searched"] = searched;
-        if (!a.export_dir.empty())
-          sim::save_ctrl_json(sim::CtrlSequence{ref.fps, h->model()->nu, searched, ctrl, offset},
-                              a.export_dir + "/" + clips[i].first + ".ctrl.json");
+        demo = sim::CtrlSequence{ref.fps, h->model()->nu, searched, ctrl, offset};
       };
       if (a.samcon) {
         sim::SamconOptions so = a.so;
@@ -255,6 +288,7 @@ void run_track_pd(const PdArgs& a) {
       if (!a.export_dir.empty()) {
         sim::export_bvh_file(*h, r.simulated, a.export_dir + "/" + clips[i].first + ".bvh");
         sim::save_trajectory_json(r.simulated, a.export_dir + "/" + clips[i].first + ".qpos.json");
+        if (search) sim::save_ctrl_json(demo, ctrl_path);
       }
       res[i].simulated = {};  // free the trajectory
     } catch (const std::exception& ex) {
@@ -265,8 +299,9 @@ void run_track_pd(const PdArgs& a) {
     prog.tick();
   }
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  int n = 0, succ = 0, fell = 0;
+  int n = 0, succ = 0, fell = 0, skipped = 0;
   double mpjpe = 0, drift = 0, frac_ok = 0, frames = 0;
+  for (const json& r : rows) skipped += r.contains("skipped");
   for (int i = 0; i < N; ++i)
     if (ok[i]) {
       ++n, succ += res[i].success, fell += res[i].fell, mpjpe += res[i].mpjpe_m, drift += res[i].root_drift_m;
@@ -275,6 +310,7 @@ void run_track_pd(const PdArgs& a) {
   const double dn = std::max(n, 1);
   json s = {{"clips", N},
             {"clips_ok", n},
+            {"clips_skipped", skipped},
             {"success_rate", succ / dn},
             {"fall_rate", fell / dn},
             {"mpjpe_m", mpjpe / dn},
@@ -384,6 +420,9 @@ void add_sim_commands(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(0.0, 2.0));
   p->add_option("--export-dir", pd.export_dir, "write the simulated motion of every clip here (NAME.bvh and NAME.qpos.json; with --samcon or --samcon-mpc also NAME.ctrl.json, the actuator targets per control step)");
+  p->add_flag("--resume", pd.resume,
+              "with --export-dir and a search: skip clips whose NAME.ctrl.json is there (finished earlier; the "
+              "seeds stay those of an uninterrupted run); the summary covers the clips run now");
   p->add_flag("--samcon", pd.samcon,
               "search offsets to the balance expert's targets per 0.1 s window (SAMCON, sim/samcon.h; slow: "
               "~80 s per 6 s clip at 512 samples on 2 threads)");
@@ -404,6 +443,8 @@ void add_sim_commands(CLI::App& app) {
     for (const char* o : {"--mpc-samples", "--mpc-horizon", "--mpc-carry", "--target-noise"})
       if (!pd.mpc && p->count(o) > 0) throw Error(std::string("track-pd: ") + o + " needs --samcon-mpc");
     if ((pd.samcon || pd.mpc) && pd.assist != 0) throw Error("track-pd: --samcon / --samcon-mpc do not take --assist");
+    if (pd.resume && (pd.export_dir.empty() || !(pd.samcon || pd.mpc)))
+      throw Error("track-pd: --resume needs --export-dir and --samcon or --samcon-mpc");
     run_track_pd(pd);
   });
 
