@@ -18,13 +18,14 @@ namespace {
 
 void check_options(const SamconMpcOptions& o) {
   const bool ok = o.samples >= 1 && o.window >= 1 && o.horizon >= 1 && o.sigma >= 0 && std::isfinite(o.sigma) &&
-                  o.target_noise >= 0 && std::isfinite(o.target_noise) && o.carry >= 0 && o.carry <= 1;
+                  o.target_noise >= 0 && std::isfinite(o.target_noise) && o.carry >= 0 && o.carry <= 1 &&
+                  o.temperature >= 0 && std::isfinite(o.temperature);
   if (!ok)
     throw Error("track_samcon_mpc: bad options (samples " + std::to_string(o.samples) + ", window " +
                 std::to_string(o.window) + ", horizon " + std::to_string(o.horizon) + ", sigma " +
                 std::to_string(o.sigma) + ", carry " + std::to_string(o.carry) + ", target noise " +
-                std::to_string(o.target_noise) +
-                "): need samples, window, horizon >= 1, finite sigma and noise >= 0, carry in [0, 1]");
+                std::to_string(o.target_noise) + ", temperature " + std::to_string(o.temperature) +
+                "): need samples, window, horizon >= 1, finite sigma, noise and temperature >= 0, carry in [0, 1]");
 }
 
 }  // namespace
@@ -47,7 +48,7 @@ SamconMpcResult track_samcon_mpc(const std::shared_ptr<const Humanoid>& h, const
   std::mt19937_64 rng(opt.seed);
   std::normal_distribution<double> normal(0.0, 1.0);
   std::vector<double> offsets((size_t)S * nu), cost((size_t)S), worst((size_t)S), prev((size_t)nu, 0.0);
-  std::vector<double> applied((size_t)nu);
+  std::vector<double> applied((size_t)nu), mean((size_t)nu);
   EnvState now;
   bool planning = true;
   int t = 0;
@@ -74,6 +75,23 @@ SamconMpcResult track_samcon_mpc(const std::shared_ptr<const Humanoid>& h, const
       for (int i = 1; i < S; ++i)
         if (better(i, best)) best = i;
       std::copy(offsets.begin() + (size_t)best * nu, offsets.begin() + (size_t)(best + 1) * nu, prev.begin());
+      if (opt.temperature > 0 && worst[(size_t)best] < pd.fail_distance) {  // survivors' weighted mean
+        const double c0 = cost[(size_t)best], scale = opt.temperature * std::max(c0, 1e-12);
+        std::fill(mean.begin(), mean.end(), 0.0);
+        double wsum = 0;
+        for (int i = 0; i < S; ++i) {
+          if (!(worst[(size_t)i] < pd.fail_distance)) continue;
+          const double w = std::exp(-(cost[(size_t)i] - c0) / scale);
+          wsum += w;
+          for (int k = 0; k < nu; ++k) mean[(size_t)k] += w * offsets[(size_t)i * nu + k];
+        }
+        for (double& v : mean) v /= wsum;
+        Env& env = *ctx.envs[0];
+        env.restore_state(now);
+        double mean_worst = 0;
+        samcon_detail::simulate_candidate(env, ctx, ref, t, steps, mean.data(), &mean_worst);
+        if (mean_worst < pd.fail_distance) prev = mean;
+      }
     }
     bool failed = false;
     for (int s = 1; s <= w; ++s) {

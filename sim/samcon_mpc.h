@@ -15,6 +15,9 @@
 // failed (a body fail_distance from the reference), planning stops and the expert alone finishes the clip.
 // Deterministic for a seed: offsets and noise are drawn on one thread in order, candidates are simulated in
 // parallel (OpenMP, t2m::get_num_threads()) from the saved state, so the result does not depend on the threads.
+// With temperature > 0 the applied offset is the survivors' cost-weighted mean instead (checked by one more
+// simulation; the cheapest survivor when the mean fails): the argmin of a random search changes by about sigma
+// from one window to the next, which a student cannot imitate (docs/BFM.md, session 23).
 // Cost per second of motion: samples × window × horizon × 10 control steps (128 × 15: ~6 s on 2 threads).
 #pragma once
 #include <cstdint>
@@ -33,6 +36,10 @@ struct SamconMpcOptions {
   double sigma = 0.15;        // rad, std of the per-hinge offset around carry × the previous offset
   double carry = 0.5;         // how much of the previous window's offset new candidates start from, in [0, 1]
   double target_noise = 0.0;  // rad, noise on every target applied to the tracked body
+  double temperature = 0.0;   // 0: apply the cheapest survivor; > 0: apply the cost-weighted mean of the survivors'
+                              // offsets, w_i = exp(-(cost_i - cost_min) / (temperature * cost_min)) (MPPI-style;
+                              // smoother, learnable offsets), when that mean survives its own simulation (else
+                              // the cheapest)
   uint64_t seed = 1;
   BalanceOptions balance;     // the feedback expert underneath (action_noise is ignored)
 };

@@ -4,6 +4,8 @@
 // same search's open-loop path off; the result does not depend on the thread count; bad options are rejected; and
 // `t2m track-pd --samcon-mpc` runs it (report, exported targets) and refuses flags that do not go together.
 #include <gtest/gtest.h>
+
+#include <cmath>
 #include <unistd.h>
 
 #include <filesystem>
@@ -117,10 +119,44 @@ TEST(SimSamconMpc, SameResultForAnyThreadCount) {
   EXPECT_GT(r[0].frames_planned, 0);
 }
 
+namespace {
+// RMS change of the planned offset between consecutive windows (rad), over the planned steps.
+double offset_jump_rms(const SamconMpcResult& r, int window, int nu) {
+  double s = 0;
+  int64_t n = 0;
+  for (int t = window; t < r.frames_planned; t += window)
+    for (int k = 0; k < nu; ++k) {
+      const double d = r.offset[(size_t)t * nu + k] - r.offset[(size_t)(t - window) * nu + k];
+      s += d * d, ++n;
+    }
+  return n ? std::sqrt(s / n) : 0.0;
+}
+}  // namespace
+
+// --mpc-temperature: the survivors' cost-weighted mean offset still walks the fixture, and its offsets change
+// less from window to window than the cheapest candidate's (a random draw each window); same for any thread count.
+TEST(SimSamconMpc, WeightedMeanOffsetsWalkAndAreSmoother) {
+  SamconMpcOptions o = small();
+  const SamconMpcResult argmin = track_samcon_mpc(humanoid(), walk(), o);
+  o.temperature = 0.05;
+  const SamconMpcResult mean = track_samcon_mpc(humanoid(), walk(), o);
+  EXPECT_TRUE(mean.track.success);
+  const int nu = humanoid()->model()->nu;
+  const double jm = offset_jump_rms(mean, o.window, nu), ja = offset_jump_rms(argmin, o.window, nu);
+  EXPECT_GT(jm, 0.0);
+  EXPECT_LT(jm, 0.8 * ja) << "mean " << jm << " argmin " << ja;
+  const int saved = t2m::get_num_threads();
+  t2m::set_num_threads(1);
+  const SamconMpcResult one = track_samcon_mpc(humanoid(), walk(), o);
+  t2m::set_num_threads(saved);
+  EXPECT_EQ(one.offset, mean.offset);
+}
+
 TEST(SimSamconMpc, BadOptionsThrow) {
   for (auto f : {+[](SamconMpcOptions& o) { o.samples = 0; }, +[](SamconMpcOptions& o) { o.window = 0; },
                  +[](SamconMpcOptions& o) { o.horizon = 0; }, +[](SamconMpcOptions& o) { o.sigma = -0.1; },
-                 +[](SamconMpcOptions& o) { o.carry = 1.5; }, +[](SamconMpcOptions& o) { o.target_noise = -1; }}) {
+                 +[](SamconMpcOptions& o) { o.carry = 1.5; }, +[](SamconMpcOptions& o) { o.target_noise = -1; },
+                 +[](SamconMpcOptions& o) { o.temperature = -0.1; }}) {
     SamconMpcOptions o;
     f(o);
     EXPECT_THROW(track_samcon_mpc(humanoid(), walk(), o), t2m::Error);

@@ -437,10 +437,11 @@ void add_sim_commands(CLI::App& app) {
   p->add_option("--mpc-samples", pd.mo.samples, "samcon-mpc: candidates per window")->capture_default_str()->check(CLI::PositiveNumber);
   p->add_option("--mpc-horizon", pd.mo.horizon, "samcon-mpc: look-ahead in windows")->capture_default_str()->check(CLI::PositiveNumber);
   p->add_option("--mpc-carry", pd.mo.carry, "samcon-mpc: share of the previous offset new candidates start from")->capture_default_str()->check(CLI::Range(0.0, 1.0));
+  p->add_option("--mpc-temperature", pd.mo.temperature, "samcon-mpc: 0 = apply the cheapest candidate; > 0 = the survivors' cost-weighted mean offset (relative temperature, e.g. 0.1)")->capture_default_str()->check(CLI::NonNegativeNumber);
   p->add_option("--target-noise", pd.mo.target_noise, "samcon-mpc: Gaussian noise on every applied target, rad (robustness)")->capture_default_str()->check(CLI::Range(0.0, 1.0));
   p->callback([p] {
     if (pd.samcon && pd.mpc) throw Error("track-pd: --samcon and --samcon-mpc exclude each other");
-    for (const char* o : {"--mpc-samples", "--mpc-horizon", "--mpc-carry", "--target-noise"})
+    for (const char* o : {"--mpc-samples", "--mpc-horizon", "--mpc-carry", "--mpc-temperature", "--target-noise"})
       if (!pd.mpc && p->count(o) > 0) throw Error(std::string("track-pd: ") + o + " needs --samcon-mpc");
     if ((pd.samcon || pd.mpc) && pd.assist != 0) throw Error("track-pd: --samcon / --samcon-mpc do not take --assist");
     if (pd.resume && (pd.export_dir.empty() || !(pd.samcon || pd.mpc)))
