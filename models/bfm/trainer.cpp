@@ -18,6 +18,9 @@ namespace fs = std::filesystem;
 using json = nlohmann::json;
 
 namespace {
+// Rows of the batch parts one after the other (the single part itself when there is one).
+Tensor concat_rows(const std::vector<Tensor>& parts) { return parts.size() == 1 ? parts[0] : concat(parts, 0); }
+
 // Distinct Philox keys for the run's streams.
 uint64_t stream_seed(uint64_t seed, uint64_t k) {
   uint64_t x = seed * 0x9E3779B97F4A7C15ull + k * 0xBF58476D1CE4E5B9ull + 0x94D049BB133111EBull;
@@ -263,7 +266,7 @@ BfmStepStats BfmTrainer::train_step() {
   const auto join = [&](Tensor ReplayBatch::*field) {
     std::vector<Tensor> ts;
     for (const ReplayBatch* p : parts) ts.push_back(p->*field);
-    return ts.size() == 1 ? ts[0] : concat(ts, 0);
+    return concat_rows(ts);
   };
   fb.obs = join(&ReplayBatch::obs), fb.action = join(&ReplayBatch::action);
   fb.next_obs = join(&ReplayBatch::next_obs), fb.not_done = join(&ReplayBatch::not_done);
@@ -299,9 +302,8 @@ BfmStepStats BfmTrainer::train_step() {
         obs.push_back(p->obs), clips.push_back(p->clip), frames.push_back(p->frame);
         act.push_back(labels && p->expert_action.defined() ? p->expert_action : p->action);
       }
-      const auto cat = [](const std::vector<Tensor>& ts) { return ts.size() == 1 ? ts[0] : concat(ts, 0); };
-      fb.bc_obs = cat(obs), fb.bc_action = cat(act);
-      const Tensor clip = cat(clips).contiguous(), frame = cat(frames).contiguous();
+      fb.bc_obs = concat_rows(obs), fb.bc_action = concat_rows(act);
+      const Tensor clip = concat_rows(clips).contiguous(), frame = concat_rows(frames).contiguous();
       fb.bc_z = window_latents(refs_, clip.data<int64_t>(), frame.data<int64_t>(), cfg_.bc_batch, L, enc);
     }
   }
