@@ -114,6 +114,9 @@ TEST(Dataset, ParsesClipNames) {
   for (const char* bad : {"dataset-3_walk_active_001", "dataset-2_walk_active", "dataset-2_walk_active_01x",
                           "dataset-2__active_001", "dataset-2_a_b_c_001", "", "walk"})
     EXPECT_FALSE(parse_clip_name(bad, &ds, &c, &s, &take)) << bad;
+  EXPECT_EQ(clip_content("dataset-2_walk-turn-left_active_013"), "walk-turn-left");
+  EXPECT_EQ(clip_content("dataset-2__active_001"), "");
+  EXPECT_EQ(clip_content("bandai_walk_60"), "");
 }
 
 TEST(Dataset, ReadsLabelFiles) {

@@ -112,10 +112,8 @@ std::vector<std::pair<std::string, std::string>> select_clips(const ClipArgs& a)
   if (!a.content.empty()) {  // content labels of the names (dataset-N_<content>_<style>_<take>)
     std::vector<std::pair<std::string, std::string>> kept;
     for (auto& c : sel) {
-      int dataset = 0, take = 0;
-      std::string content, style;
-      if (t2m::data::parse_clip_name(c.first, &dataset, &content, &style, &take) &&
-          std::find(a.content.begin(), a.content.end(), content) != a.content.end())
+      const std::string content = t2m::data::clip_content(c.first);
+      if (!content.empty() && std::find(a.content.begin(), a.content.end(), content) != a.content.end())
         kept.push_back(c);
     }
     sel = kept;

@@ -21,12 +21,6 @@ namespace {
 
 const char* kSuffix = ".ctrl.json";
 
-std::string content_of(const std::string& clip_name) {
-  int dataset = 0, take = 0;
-  std::string content, style;
-  return data::parse_clip_name(clip_name, &dataset, &content, &style, &take) ? content : std::string();
-}
-
 // The rows of one run: obs / next_obs [n, D], applied action and label [n, A].
 struct RunRows {
   std::vector<float> obs, next_obs, action, label;
@@ -158,10 +152,10 @@ void replay_planner_demos(const std::shared_ptr<const sim::Humanoid>& h, const R
 
 std::vector<char> planner_owned_clips(const RefMotions& refs, const PlannerDemos& demos) {
   std::set<std::string> contents;
-  for (int c : demos.clip) contents.insert(content_of(refs.names[(size_t)c]));
+  for (int c : demos.clip) contents.insert(data::clip_content(refs.names[(size_t)c]));
   contents.erase(std::string());
   std::vector<char> owned((size_t)refs.clips(), 0);
-  for (int c = 0; c < refs.clips(); ++c) owned[(size_t)c] = contents.count(content_of(refs.names[(size_t)c])) > 0;
+  for (int c = 0; c < refs.clips(); ++c) owned[(size_t)c] = contents.count(data::clip_content(refs.names[(size_t)c])) > 0;
   return owned;
 }
 

@@ -77,6 +77,12 @@ bool parse_clip_name(const std::string& name, int* dataset, std::string* content
   return true;
 }
 
+std::string clip_content(const std::string& name) {
+  int dataset = 0, take = 0;
+  std::string content, style;
+  return parse_clip_name(name, &dataset, &content, &style, &take) ? content : std::string();
+}
+
 namespace {
 
 // "dataset-2_walk" -> "walk".

@@ -56,6 +56,8 @@ std::vector<std::string> read_label_file(const std::string& path);
 // Splits "dataset-2_walk-turn-left_active_013" into dataset 2, content "walk-turn-left", style "active", take 13.
 // Returns false when the name does not have that form.
 bool parse_clip_name(const std::string& name, int* dataset, std::string* content, std::string* style, int* take);
+// The content label of such a name ("walk-turn-left"), "" when the name does not have that form.
+std::string clip_content(const std::string& name);
 
 // Scans root (= CACHE/bandai) for *.bvh with their .json, labels from data_dir/cfg. Every clip is parsed fully
 // and converted with sim::motion_from_bvh (OpenMP, in parallel) so that only usable clips enter the manifest;
