@@ -19,16 +19,44 @@ namespace {
 void check_options(const SamconMpcOptions& o) {
   const bool ok = o.samples >= 1 && o.window >= 1 && o.horizon >= 1 && o.sigma >= 0 && std::isfinite(o.sigma) &&
                   o.target_noise >= 0 && std::isfinite(o.target_noise) && o.carry >= 0 && o.carry <= 1 &&
-                  o.temperature >= 0 && std::isfinite(o.temperature);
+                  o.temperature >= 0 && std::isfinite(o.temperature) && o.size_cost >= 0 && std::isfinite(o.size_cost) &&
+                  o.change_cost >= 0 && std::isfinite(o.change_cost);
   if (!ok)
     throw Error("track_samcon_mpc: bad options (samples " + std::to_string(o.samples) + ", window " +
                 std::to_string(o.window) + ", horizon " + std::to_string(o.horizon) + ", sigma " +
                 std::to_string(o.sigma) + ", carry " + std::to_string(o.carry) + ", target noise " +
                 std::to_string(o.target_noise) + ", temperature " + std::to_string(o.temperature) +
-                "): need samples, window, horizon >= 1, finite sigma, noise and temperature >= 0, carry in [0, 1]");
+                "), size cost " + std::to_string(o.size_cost) + ", change cost " + std::to_string(o.change_cost) +
+                ": need samples, window, horizon >= 1, finite sigma, noise, temperature and costs >= 0, carry in [0, 1]");
+}
+
+// 1 for the hinges that get offsets (opt.hinges, or all when empty).
+std::vector<char> offset_mask(const SamconMpcOptions& o, int nu) {
+  std::vector<char> mask((size_t)nu, o.hinges.empty() ? 1 : 0);
+  for (int k : o.hinges) {
+    if (k < 0 || k >= nu || mask[(size_t)k]) throw Error("track_samcon_mpc: offset hinge " + std::to_string(k) +
+                                                         " outside [0, " + std::to_string(nu) + ") or repeated");
+    mask[(size_t)k] = 1;
+  }
+  return mask;
 }
 
 }  // namespace
+
+std::vector<int> lower_body_actuators(const Humanoid& h) {
+  const mjModel* m = h.model();
+  std::vector<int> out;
+  for (int k = 0; k < m->nu; ++k) {
+    const char* name = mj_id2name(m, mjOBJ_ACTUATOR, k);
+    const std::string n = name ? name : "";
+    for (const char* body : {"Spine_", "Chest_", "UpperLeg_", "LowerLeg_", "Foot_", "Toes_"})
+      if (n.rfind(body, 0) == 0) {
+        out.push_back(k);
+        break;
+      }
+  }
+  return out;
+}
 
 SamconMpcResult track_samcon_mpc(const std::shared_ptr<const Humanoid>& h, const QposTrajectory& ref,
                                  const SamconMpcOptions& opt, const PdOptions& pd) {
@@ -37,6 +65,10 @@ SamconMpcResult track_samcon_mpc(const std::shared_ptr<const Humanoid>& h, const
   const int T = ref.frames, nt = (int)ctx.envs.size(), S = opt.samples;
   Env body(h);  // the tracked body
   const int nu = body.model()->nu;
+  const std::vector<char> mask = offset_mask(opt, nu);
+  int nmask = 0;
+  for (char c : mask) nmask += c;
+  const double inv_nmask = 1.0 / std::max(nmask, 1);
 
   SamconMpcResult res;
   res.offset.assign((size_t)std::max(T - 1, 0) * nu, 0.0);
@@ -59,13 +91,22 @@ SamconMpcResult track_samcon_mpc(const std::shared_ptr<const Humanoid>& h, const
       body.save_state(now);
       for (int i = 0; i < S; ++i)
         for (int k = 0; k < nu; ++k)
-          offsets[(size_t)i * nu + k] = i == 0 ? 0.0 : i == 1 ? prev[k] : opt.carry * prev[k] + opt.sigma * normal(rng);
+          offsets[(size_t)i * nu + k] = !mask[(size_t)k] ? 0.0
+                                        : i == 0     ? 0.0
+                                        : i == 1     ? prev[k]
+                                                     : opt.carry * prev[k] + opt.sigma * normal(rng);
 #pragma omp parallel for schedule(dynamic) num_threads(nt)
       for (int i = 0; i < S; ++i) {
         Env& env = *ctx.envs[(size_t)omp_get_thread_num()];
         env.restore_state(now);
         cost[(size_t)i] = samcon_detail::simulate_candidate(env, ctx, ref, t, steps, offsets.data() + (size_t)i * nu,
                                                             &worst[(size_t)i]);
+        double size = 0, change = 0;  // the learnable teacher's preference (options)
+        for (int k = 0; k < nu; ++k) {
+          const double d = offsets[(size_t)i * nu + k];
+          size += d * d, change += (d - prev[(size_t)k]) * (d - prev[(size_t)k]);
+        }
+        cost[(size_t)i] += (opt.size_cost * size + opt.change_cost * change) * inv_nmask;
       }
       int best = 0;  // survivors first, then the cost, then the index
       auto better = [&](int a, int b) {

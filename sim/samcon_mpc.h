@@ -40,9 +40,19 @@ struct SamconMpcOptions {
                               // offsets, w_i = exp(-(cost_i - cost_min) / (temperature * cost_min)) (MPPI-style;
                               // smoother, learnable offsets), when that mean survives its own simulation (else
                               // the cheapest)
+  // A learnable teacher (docs/BFM.md, session 24): among the offsets that work, prefer small and persistent ones,
+  //   cost_i += size_cost · mean_k δ_ik² + change_cost · mean_k (δ_ik - δ_prev,k)²     (k over the offset hinges)
+  // (m² per rad², the scale of the tracking cost's sum of squared body errors), and search on fewer hinges.
+  double size_cost = 0.0;
+  double change_cost = 0.0;
+  std::vector<int> hinges;    // the actuators that get offsets (others run the expert alone); empty: all
   uint64_t seed = 1;
   BalanceOptions balance;     // the feedback expert underneath (action_noise is ignored)
 };
+
+// The actuators of the trunk and the legs (Spine, Chest, UpperLeg, LowerLeg, Foot, Toes; 30 of our humanoid's 60):
+// where an offset changes balance and stepping; the arms, neck and head follow the expert.
+std::vector<int> lower_body_actuators(const Humanoid& h);
 
 struct SamconMpcResult {
   PdResult track;              // the tracked body, scored like track_pd (track.simulated: qpos / qvel per frame)
@@ -52,7 +62,8 @@ struct SamconMpcResult {
 };
 
 // Errors (t2m::Error): a reference that does not match the humanoid; samples < 1, window < 1, horizon < 1,
-// sigma or target_noise < 0 or not finite, carry outside [0, 1].
+// sigma, target_noise, temperature, size_cost or change_cost < 0 or not finite, carry outside [0, 1], a hinge index
+// outside [0, nu) or repeated.
 SamconMpcResult track_samcon_mpc(const std::shared_ptr<const Humanoid>& h, const QposTrajectory& ref,
                                  const SamconMpcOptions& opt = {}, const PdOptions& pd = {});
 

@@ -152,11 +152,48 @@ TEST(SimSamconMpc, WeightedMeanOffsetsWalkAndAreSmoother) {
   EXPECT_EQ(one.offset, mean.offset);
 }
 
+// The learnable teacher's options: offsets only on the trunk and leg hinges (the others stay exactly 0), and a cost
+// on the offsets' change between windows that makes them more persistent; the fixture walk is still tracked.
+TEST(SimSamconMpc, LowerBodyOffsetsWithAChangeCostWalkAndPersist) {
+  const std::vector<int> lb = lower_body_actuators(*humanoid());
+  ASSERT_EQ(lb.size(), 30u);
+  const mjModel* m = humanoid()->model();
+  for (int k : lb) {
+    const std::string n = mj_id2name(m, mjOBJ_ACTUATOR, k);
+    EXPECT_TRUE(n.find("Leg") != std::string::npos || n.find("Foot") != std::string::npos ||
+                n.find("Toes") != std::string::npos || n.rfind("Spine", 0) == 0 || n.rfind("Chest", 0) == 0)
+        << n;
+  }
+  SamconMpcOptions o = small();
+  o.hinges = lb;
+  const SamconMpcResult free = track_samcon_mpc(humanoid(), walk(), o);
+  o.change_cost = 4, o.size_cost = 2;
+  const SamconMpcResult held = track_samcon_mpc(humanoid(), walk(), o);
+  const int nu = m->nu;
+  for (const SamconMpcResult* r : {&free, &held}) {
+    EXPECT_TRUE(r->track.success);
+    std::vector<char> in((size_t)nu, 0);
+    for (int k : lb) in[(size_t)k] = 1;
+    bool moved = false;
+    for (size_t i = 0; i < r->offset.size(); ++i) {
+      if (!in[i % (size_t)nu]) {
+        EXPECT_EQ(r->offset[i], 0.0) << "hinge " << i % nu;
+      }
+      moved = moved || r->offset[i] != 0.0;
+    }
+    EXPECT_TRUE(moved);
+  }
+  const double jh = offset_jump_rms(held, o.window, nu), jf = offset_jump_rms(free, o.window, nu);
+  EXPECT_LT(jh, 0.8 * jf) << "with change cost " << jh << " without " << jf;
+}
+
 TEST(SimSamconMpc, BadOptionsThrow) {
   for (auto f : {+[](SamconMpcOptions& o) { o.samples = 0; }, +[](SamconMpcOptions& o) { o.window = 0; },
                  +[](SamconMpcOptions& o) { o.horizon = 0; }, +[](SamconMpcOptions& o) { o.sigma = -0.1; },
                  +[](SamconMpcOptions& o) { o.carry = 1.5; }, +[](SamconMpcOptions& o) { o.target_noise = -1; },
-                 +[](SamconMpcOptions& o) { o.temperature = -0.1; }}) {
+                 +[](SamconMpcOptions& o) { o.temperature = -0.1; }, +[](SamconMpcOptions& o) { o.size_cost = -1; },
+                 +[](SamconMpcOptions& o) { o.change_cost = NAN; }, +[](SamconMpcOptions& o) { o.hinges = {60}; },
+                 +[](SamconMpcOptions& o) { o.hinges = {3, 3}; }, +[](SamconMpcOptions& o) { o.hinges = {-1}; }}) {
     SamconMpcOptions o;
     f(o);
     EXPECT_THROW(track_samcon_mpc(humanoid(), walk(), o), t2m::Error);
@@ -203,7 +240,8 @@ TEST(SimSamconMpc, TrackPdCommand) {
   for (const std::string& bad : {std::string("--samcon --samcon-mpc"), std::string("--target-noise 0.1"),
                                  std::string("--samcon-mpc --mpc-carry 2"), std::string("--samcon-mpc --resume"),
                                  std::string("--resume --export-dir '" + exp.string() + "'"),
-                                 std::string("--content walk"), std::string("--every 0")}) {
+                                 std::string("--content walk"), std::string("--every 0"),
+                                 std::string("--mpc-lower-body"), std::string("--mpc-change-cost 1")}) {
     EXPECT_NE(run_t2m("track-pd " + bad + " --bvh " + bvh + " --out '" + none.string() + "'", w / "bad.log"), 0)
         << bad;
     const std::string log = read_text(w / "bad.log");

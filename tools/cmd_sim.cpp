@@ -216,6 +216,7 @@ struct PdArgs {
   sim::SamconOptions so;
   bool mpc = false;  // --samcon-mpc: the closed-loop search (window, sigma and seed from so)
   sim::SamconMpcOptions mo;
+  bool mpc_lower_body = false;  // --mpc-lower-body: offsets on the trunk and legs only (mo.hinges)
   std::string export_dir;
   bool resume = false;  // skip clips whose NAME.ctrl.json is in export_dir (a search's finished clip)
 };
@@ -268,6 +269,7 @@ void run_track_pd(const PdArgs& a) {
       } else if (a.mpc) {
         sim::SamconMpcOptions mo = a.mo;
         mo.window = a.so.window, mo.sigma = a.so.sigma, mo.balance = a.bo;
+        if (a.mpc_lower_body) mo.hinges = sim::lower_body_actuators(*h);
         mo.seed = a.so.seed + (uint64_t)i;  // per clip
         sim::SamconMpcResult mr = sim::track_samcon_mpc(h, ref, mo, po);
         export_ctrl(mr.frames_planned, mr.ctrl, mr.offset);
@@ -436,10 +438,14 @@ void add_sim_commands(CLI::App& app) {
   p->add_option("--mpc-horizon", pd.mo.horizon, "samcon-mpc: look-ahead in windows")->capture_default_str()->check(CLI::PositiveNumber);
   p->add_option("--mpc-carry", pd.mo.carry, "samcon-mpc: share of the previous offset new candidates start from")->capture_default_str()->check(CLI::Range(0.0, 1.0));
   p->add_option("--mpc-temperature", pd.mo.temperature, "samcon-mpc: 0 = apply the cheapest candidate; > 0 = the survivors' cost-weighted mean offset (relative temperature, e.g. 0.1)")->capture_default_str()->check(CLI::NonNegativeNumber);
+  p->add_option("--mpc-size-cost", pd.mo.size_cost, "samcon-mpc: cost per rad² of mean squared offset (m², added to the tracking cost; prefers small offsets)")->capture_default_str()->check(CLI::NonNegativeNumber);
+  p->add_option("--mpc-change-cost", pd.mo.change_cost, "samcon-mpc: cost per rad² of mean squared change from the previous window's offset (prefers persistent offsets)")->capture_default_str()->check(CLI::NonNegativeNumber);
+  p->add_flag("--mpc-lower-body", pd.mpc_lower_body, "samcon-mpc: offsets on the trunk and leg hinges only (30 of 60); arms, neck and head follow the expert");
   p->add_option("--target-noise", pd.mo.target_noise, "samcon-mpc: Gaussian noise on every applied target, rad (robustness)")->capture_default_str()->check(CLI::Range(0.0, 1.0));
   p->callback([p] {
     if (pd.samcon && pd.mpc) throw Error("track-pd: --samcon and --samcon-mpc exclude each other");
-    for (const char* o : {"--mpc-samples", "--mpc-horizon", "--mpc-carry", "--mpc-temperature", "--target-noise"})
+    for (const char* o : {"--mpc-samples", "--mpc-horizon", "--mpc-carry", "--mpc-temperature", "--mpc-size-cost",
+                          "--mpc-change-cost", "--mpc-lower-body", "--target-noise"})
       if (!pd.mpc && p->count(o) > 0) throw Error(std::string("track-pd: ") + o + " needs --samcon-mpc");
     if ((pd.samcon || pd.mpc) && pd.assist != 0) throw Error("track-pd: --samcon / --samcon-mpc do not take --assist");
     if (pd.resume && (pd.export_dir.empty() || !(pd.samcon || pd.mpc)))
