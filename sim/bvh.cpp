@@ -1,7 +1,6 @@
 // bvh.cpp — BVH reader (whole-file, hand-written tokenizer, std::from_chars) and writer (std::to_chars).
 #include "sim/bvh.h"
 
-#include <unistd.h>
 
 #include <charconv>
 #include <cmath>
@@ -9,6 +8,7 @@
 #include <memory>
 #include <unordered_set>
 
+#include "sim/atomic_file.h"
 #include "tensor/tensor.h"
 
 namespace t2m::sim {
@@ -368,18 +368,7 @@ std::string bvh_to_string(const BvhMotion& m, int digits) {
 
 void write_bvh(const BvhMotion& m, const std::string& path, int digits) {
   const std::string text = bvh_to_string(m, digits);
-  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
-  FILE* f = std::fopen(tmp.c_str(), "wb");
-  if (!f) throw Error("write_bvh: cannot create '" + tmp + "'");
-  const bool ok = std::fwrite(text.data(), 1, text.size(), f) == text.size();
-  if (std::fclose(f) != 0 || !ok) {
-    std::remove(tmp.c_str());
-    throw Error("write_bvh: write failed for '" + tmp + "'");
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    std::remove(tmp.c_str());
-    throw Error("write_bvh: cannot rename '" + tmp + "' to '" + path + "'");
-  }
+  write_text_atomic(path, text, "write_bvh");
 }
 
 }  // namespace t2m::sim

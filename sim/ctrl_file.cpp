@@ -2,10 +2,10 @@
 #include "sim/ctrl_file.h"
 
 #include <cmath>
-#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "sim/atomic_file.h"
 #include "tensor/tensor.h"
 
 namespace t2m::sim {
@@ -31,18 +31,7 @@ void save_ctrl_json(const CtrlSequence& c, const std::string& path) {
   check(c, "save_ctrl_json", path);
   const nlohmann::json j = {{"format", "t2m-ctrl-1"},           {"fps", c.fps},   {"nu", c.nu},
                             {"frames_searched", c.frames_searched}, {"ctrl", c.ctrl}, {"offset", c.offset}};
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream f(tmp);
-    if (!f) throw Error("save_ctrl_json: cannot write '" + path + "'");
-    f << j.dump() << "\n";
-    if (!f) {
-      f.close();
-      std::filesystem::remove(tmp);
-      throw Error("save_ctrl_json: write failed for '" + path + "'");
-    }
-  }
-  std::filesystem::rename(tmp, path);
+  write_text_atomic(path, j.dump() + "\n", "save_ctrl_json");
 }
 
 CtrlSequence load_ctrl_json(const std::string& path) {

@@ -4,11 +4,11 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
-#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "sim/atomic_file.h"
 #include "sim/observation.h"
 #include "tensor/tensor.h"
 
@@ -239,14 +239,7 @@ void save_trajectory_json(const QposTrajectory& q, const std::string& path) {
     throw Error("save_trajectory_json: sizes do not match frames * nq / nv for '" + path + "'");
   nlohmann::json j = {{"format", "t2m-qpos-1"}, {"fps", q.fps}, {"nq", q.nq},       {"nv", q.nv},
                       {"frames", q.frames},     {"qpos", q.qpos}, {"qvel", q.qvel}};
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream f(tmp);
-    if (!f) throw Error("save_trajectory_json: cannot write '" + path + "'");
-    f << j.dump() << "\n";
-    if (!f) throw Error("save_trajectory_json: write failed for '" + path + "'");
-  }
-  std::filesystem::rename(tmp, path);
+  write_text_atomic(path, j.dump() + "\n", "save_trajectory_json");
 }
 
 QposTrajectory load_trajectory_json(const Humanoid& h, const std::string& path) {

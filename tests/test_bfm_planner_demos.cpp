@@ -91,7 +91,18 @@ TEST(SimCtrlFile, RoundTripAndBadFiles) {
   EXPECT_EQ(r.frames_searched, 1);
   EXPECT_EQ(r.ctrl, c.ctrl);  // exact: doubles round-trip
   EXPECT_EQ(r.offset, c.offset);
-  EXPECT_FALSE(fs::exists(d + "/a.ctrl.json.tmp"));
+  // Written whole through a temp file (sim/atomic_file.h): only the final file is left; an unwritable path throws
+  // one error naming it and leaves nothing.
+  EXPECT_EQ(std::distance(fs::directory_iterator(d), fs::directory_iterator{}), 1);
+  try {
+    sim::save_ctrl_json(c, d + "/missing/b.ctrl.json");
+    ADD_FAILURE() << "no error";
+  } catch (const t2m::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("save_ctrl_json: cannot write '" + d + "/missing/b.ctrl.json'"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(std::distance(fs::directory_iterator(d), fs::directory_iterator{}), 1);
   const std::string ok = R"("fps": 30, "nu": 2, "frames_searched": 1, "ctrl": [1, 2, 3, 4], "offset": [0, 0, 0, 0])";
   const std::vector<std::string> bad = {
       "",                                                          // empty
