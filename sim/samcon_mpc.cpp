@@ -66,9 +66,7 @@ SamconMpcResult track_samcon_mpc(const std::shared_ptr<const Humanoid>& h, const
   Env body(h);  // the tracked body
   const int nu = body.model()->nu;
   const std::vector<char> mask = offset_mask(opt, nu);
-  int nmask = 0;
-  for (char c : mask) nmask += c;
-  const double inv_nmask = 1.0 / std::max(nmask, 1);
+  const double inv_nmask = 1.0 / (double)(opt.hinges.empty() ? (size_t)nu : opt.hinges.size());  // costs: means
 
   SamconMpcResult res;
   res.offset.assign((size_t)std::max(T - 1, 0) * nu, 0.0);
