@@ -20,14 +20,17 @@ void check_options(const SamconMpcOptions& o) {
   const bool ok = o.samples >= 1 && o.window >= 1 && o.horizon >= 1 && o.sigma >= 0 && std::isfinite(o.sigma) &&
                   o.target_noise >= 0 && std::isfinite(o.target_noise) && o.carry >= 0 && o.carry <= 1 &&
                   o.temperature >= 0 && std::isfinite(o.temperature) && o.size_cost >= 0 && std::isfinite(o.size_cost) &&
-                  o.change_cost >= 0 && std::isfinite(o.change_cost);
+                  o.change_cost >= 0 && std::isfinite(o.change_cost) && o.driver_share >= 0 &&
+                  o.driver_share <= 1;
   if (!ok)
     throw Error("track_samcon_mpc: bad options (samples " + std::to_string(o.samples) + ", window " +
                 std::to_string(o.window) + ", horizon " + std::to_string(o.horizon) + ", sigma " +
                 std::to_string(o.sigma) + ", carry " + std::to_string(o.carry) + ", target noise " +
                 std::to_string(o.target_noise) + ", temperature " + std::to_string(o.temperature) +
-                ", size cost " + std::to_string(o.size_cost) + ", change cost " + std::to_string(o.change_cost) +
-                "): need samples, window, horizon >= 1, finite sigma, noise, temperature and costs >= 0, carry in [0, 1]");
+                ", size cost " + std::to_string(o.size_cost) + ", change cost " + std::to_string(o.change_cost) + ", driver share " +
+                std::to_string(o.driver_share) +
+                "): need samples, window, horizon >= 1, finite sigma, noise, temperature and costs >= 0, carry and "
+                "driver share in [0, 1]");
 }
 
 // 1 for the hinges that get offsets (opt.hinges, or all when empty).
@@ -59,7 +62,7 @@ std::vector<int> lower_body_actuators(const Humanoid& h) {
 }
 
 SamconMpcResult track_samcon_mpc(const std::shared_ptr<const Humanoid>& h, const QposTrajectory& ref,
-                                 const SamconMpcOptions& opt, const PdOptions& pd) {
+                                 const SamconMpcOptions& opt, const PdOptions& pd, const BodyDriver& driver) {
   check_options(opt);
   samcon_detail::SearchContext ctx = samcon_detail::make_search_context("track_samcon_mpc", h, ref, opt.balance);
   const int T = ref.frames, nt = (int)ctx.envs.size(), S = opt.samples;
@@ -77,6 +80,7 @@ SamconMpcResult track_samcon_mpc(const std::shared_ptr<const Humanoid>& h, const
 
   std::mt19937_64 rng(opt.seed);
   std::normal_distribution<double> normal(0.0, 1.0);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
   std::vector<double> offsets((size_t)S * nu), cost((size_t)S), worst((size_t)S), prev((size_t)nu, 0.0);
   std::vector<double> applied((size_t)nu), mean((size_t)nu);
   EnvState now;
@@ -133,13 +137,27 @@ SamconMpcResult track_samcon_mpc(const std::shared_ptr<const Humanoid>& h, const
       }
     }
     bool failed = false;
+    // DAgger: the driver leads this window (a draw only for shares strictly between 0 and 1)
+    const bool driven = driver && opt.driver_share > 0 &&
+                        (opt.driver_share >= 1 || uniform(rng) < opt.driver_share);
     for (int s = 1; s <= w; ++s) {
       double* off = res.offset.data() + (size_t)(t + s - 1) * nu;
+      double* ctrl = res.ctrl.data() + (size_t)(t + s - 1) * nu;
       if (planning) std::copy(prev.begin(), prev.end(), off);
-      for (int k = 0; k < nu; ++k)
-        applied[(size_t)k] = off[k] + (opt.target_noise > 0 ? opt.target_noise * normal(rng) : 0.0);
-      samcon_detail::step_with_offset(body, ref, ctx.bref, ctx.bo, t + s, applied.data(),
-                                      res.ctrl.data() + (size_t)(t + s - 1) * nu);
+      for (int k = 0; k < nu; ++k) applied[(size_t)k] = opt.target_noise > 0 ? opt.target_noise * normal(rng) : 0.0;
+      if (driven) {
+        driver(body, t + s, ctrl);
+        for (int k = 0; k < nu; ++k) {
+          if (!std::isfinite(ctrl[k]))
+            throw Error("track_samcon_mpc: the driver's target " + std::to_string(k) + " is not finite");
+          ctrl[k] += applied[(size_t)k];
+        }
+        clamp_to_ctrlrange(body.model(), ctrl);
+        body.step_targets(ctrl, nullptr);
+      } else {
+        for (int k = 0; k < nu; ++k) applied[(size_t)k] += off[k];
+        samcon_detail::step_with_offset(body, ref, ctx.bref, ctx.bo, t + s, applied.data(), ctrl);
+      }
       score.add_frame(body);
       failed = failed || score.last_frame_error() >= pd.fail_distance;
     }

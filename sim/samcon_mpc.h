@@ -19,8 +19,13 @@
 // simulation; the cheapest survivor when the mean fails): the argmin of a random search changes by about sigma
 // from one window to the next, which a student cannot imitate (docs/BFM.md, session 23).
 // Cost per second of motion: samples × window × horizon × 10 control steps (128 × 15: ~6 s on 2 threads).
+// DAgger (docs/BFM.md, session 25): with a BodyDriver, another controller (a student policy) drives the tracked
+// body in a share driver_share of the windows (drawn per window from the seed, except at shares 0 and 1: share 0
+// is the run without a driver, bit for bit) and the planner's choice in the rest, while the planner still plans every window from the body's state: res.offset is then the planner's answer
+// (the label) in the states the driver leads the body into, res.ctrl what was applied.
 #pragma once
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -48,7 +53,12 @@ struct SamconMpcOptions {
   std::vector<int> hinges;    // the actuators that get offsets (others run the expert alone); empty: all
   uint64_t seed = 1;
   BalanceOptions balance;     // the feedback expert underneath (action_noise is ignored)
+  double driver_share = 1.0;  // with a BodyDriver: the share of windows it drives, in [0, 1]
 };
+
+// A controller for the tracked body: the actuator targets [nu] for the control step that moves `body` towards
+// reference frame t (called once per step, on the calling thread, in order).
+using BodyDriver = std::function<void(const Env& body, int t, double* ctrl)>;
 
 // The actuators of the trunk and the legs (Spine, Chest, UpperLeg, LowerLeg, Foot, Toes; 30 of our humanoid's 60):
 // where an offset changes balance and stepping; the arms, neck and head follow the expert.
@@ -62,9 +72,10 @@ struct SamconMpcResult {
 };
 
 // Errors (t2m::Error): a reference that does not match the humanoid; samples < 1, window < 1, horizon < 1,
-// sigma, target_noise, temperature, size_cost or change_cost < 0 or not finite, carry outside [0, 1], a hinge index
-// outside [0, nu) or repeated.
+// sigma, target_noise, temperature, size_cost or change_cost < 0 or not finite, carry or driver_share outside
+// [0, 1], a hinge index outside [0, nu) or repeated, a driver's non-finite target.
 SamconMpcResult track_samcon_mpc(const std::shared_ptr<const Humanoid>& h, const QposTrajectory& ref,
-                                 const SamconMpcOptions& opt = {}, const PdOptions& pd = {});
+                                 const SamconMpcOptions& opt = {}, const PdOptions& pd = {},
+                                 const BodyDriver& driver = {});
 
 }  // namespace t2m::sim

@@ -15,6 +15,7 @@
 #include "models/bfm/trainer.h"
 #include "sim/ctrl_file.h"
 #include "sim/samcon_mpc.h"
+#include "test_cli_util.h"
 #include "test_sim_walk.h"
 
 using namespace t2m;
@@ -169,6 +170,51 @@ TEST(BfmPlannerDemos, ReplayRevisitsTheRunsStatesWithThePlannersLabels) {
   }
 }
 
+// DAgger with the planner: the policy driver applies mu(s, z_{t-1}) (z = Eq 2 on the reference) as targets; a run
+// it leads half the time exports and replays like a planner run, each state labelled with the planner's choice.
+TEST(BfmPlannerDemos, PolicyDriverLeadsARunThatReplaysWithPlannerLabels) {
+  FbConfig cfg;
+  cfg.hidden = 32, cfg.b_hidden = 32, cfg.z_dim = 8;
+  FbAgent agent(cfg, 7);
+  const sim::BodyDriver drive = policy_driver(agent, humanoid(), walk());
+  sim::Env env(humanoid());
+  std::vector<float> obs((size_t)env.obs_dim());
+  env.reset(walk().qpos.data(), walk().qvel.data(), obs.data());
+  std::vector<double> ctrl((size_t)env.action_dim());
+  drive(env, 1, ctrl.data());
+  const Tensor states = Tensor::from_vector(std::vector<float>(refs().obs.begin(), refs().obs.begin() +
+                                                               (int64_t)walk().frames * refs().obs_dim),
+                                            {(int64_t)walk().frames, (int64_t)refs().obs_dim});
+  const Tensor z = agent.infer_tracking_z(states).contiguous();
+  const Tensor mu = agent.actor_mean(Tensor::from_vector(obs, {1, (int64_t)obs.size()}),
+                                     Tensor::from_vector(std::vector<float>(z.data<float>(), z.data<float>() + 8), {1, 8}))
+                        .contiguous();
+  for (int k = 0; k < env.action_dim(); ++k) EXPECT_EQ(ctrl[(size_t)k], env.action_to_ctrl(k, mu.data<float>()[k]));
+  EXPECT_THROW(drive(env, 0, ctrl.data()), Error);
+  EXPECT_THROW(drive(env, walk().frames, ctrl.data()), Error);
+  FbConfig other = cfg;
+  other.action_dim = 10;
+  FbAgent wrong(other, 7);
+  EXPECT_THROW(policy_driver(wrong, humanoid(), walk()), Error);
+
+  sim::SamconMpcOptions o;
+  o.samples = 16, o.horizon = 2, o.driver_share = 0.5;  // no noise: the planner's windows apply their labels exactly
+  const sim::SamconMpcResult r = sim::track_samcon_mpc(humanoid(), walk(), o, sim::PdOptions{}, drive);
+  ASSERT_GT(r.frames_planned, 15 + 3);
+  const std::string d = tmp_dir("dagger");
+  export_run(r, d, kWalk);
+  const ReplayBuffer b = replayed(load_planner_demos(d, refs()));  // the student's states revisited: no throw
+  ASSERT_GT(b.size(), 0);
+  int led = 0;  // rows where the applied action is not the planner's label: the student's windows
+  for (int64_t t = 0; t < b.size(); ++t) {
+    double e = 0;
+    for (int k = 0; k < b.action_dim(); ++k) e = std::max(e, (double)std::fabs(b.action_row(t)[k] - b.expert_action_row(t)[k]));
+    led += e > 0;
+  }
+  EXPECT_GT(led, 0);
+  EXPECT_LT(led, b.size());
+}
+
 TEST(BfmPlannerDemos, FailedRunsDropTheirLastSteps) {
   const std::string d = tmp_dir("failed");
   export_run(run(0.0), d, kWalk, /*frames_searched=*/30);  // as if the planner had lost the body at frame 30
@@ -178,6 +224,15 @@ TEST(BfmPlannerDemos, FailedRunsDropTheirLastSteps) {
   EXPECT_EQ(demos.failed_runs, 1);
   EXPECT_EQ(demos.rows, 20);
   EXPECT_EQ(replayed(demos).size(), 20);
+  // Several directories, comma-separated: their runs in order.
+  const std::string d2 = tmp_dir("failed2");
+  export_run(run(0.0), d2, kWalk2, /*frames_searched=*/25);
+  const PlannerDemos both = load_planner_demos(d + "," + d2, refs(), o);
+  ASSERT_EQ(both.files.size(), 2u);
+  EXPECT_EQ(both.clip, (std::vector<int>{0, 2}));
+  EXPECT_EQ(both.rows, 20 + 15);
+  EXPECT_EQ(both.failed_runs, 2);
+  EXPECT_THROW(load_planner_demos(d + "," + d2 + "/missing", refs(), o), Error);
   o.drop_before_fail = 30;  // nothing left: no usable run
   EXPECT_THROW(load_planner_demos(d, refs(), o), Error);
   o.drop_before_fail = -1;
@@ -298,4 +353,17 @@ TEST(BfmTrainLoop, DemonstrationsJoinTheSeedData) {
   BfmTrainConfig bad = c;
   bad.demo_fraction = 1.5;
   EXPECT_THROW(bad.validate(), Error);
+}
+
+// `t2m train bfm --demos DIR1,DIR2` checks every directory before it writes anything.
+TEST(BfmTrainLoop, DemosFlagNamesAMissingDirectory) {
+  if (!fs::exists(t2m::test::t2m_binary())) GTEST_SKIP() << "t2m binary not built next to the test";
+  const std::string demos = tmp_dir("cli_demos"), w = tmp_dir("cli_run");
+  const fs::path out = fs::path(w) / "run";
+  const int rc = t2m::test::run_t2m("train bfm --out '" + out.string() + "' --demos '" + demos + "," + demos +
+                                        "/missing'", fs::path(w) / "log");
+  const std::string log = t2m::test::read_text(fs::path(w) / "log");
+  EXPECT_NE(rc, 0);
+  EXPECT_EQ(log.rfind("t2m: train bfm: --demos: no directory", 0), 0u) << log;
+  EXPECT_FALSE(fs::exists(out / "config.json"));
 }

@@ -187,13 +187,68 @@ TEST(SimSamconMpc, LowerBodyOffsetsWithAChangeCostWalkAndPersist) {
   EXPECT_LT(jh, 0.8 * jf) << "with change cost " << jh << " without " << jf;
 }
 
+// DAgger (BodyDriver): a driver that applies the planner's own targets reproduces its run bit for bit, labels
+// included (the planner plans from the same states); share 0 is the run without a driver; at share 0.5 the driver
+// leads some windows and the planner the others, and the planner's offsets are recorded in all of them.
+TEST(SimSamconMpc, DriverLeadsTheBodyWhilePlannerLabels) {
+  SamconMpcOptions o = small();
+  o.samples = 12, o.horizon = 2, o.seed = 3;
+  const SamconMpcResult plan = track_samcon_mpc(humanoid(), walk(), o);
+  const int nu = humanoid()->model()->nu;
+  ASSERT_GT(plan.frames_planned, 20);
+  std::vector<int> calls;
+  const BodyDriver replay = [&](const Env& body, int t, double* ctrl) {
+    EXPECT_EQ(body.model()->nu, nu);
+    calls.push_back(t);
+    std::copy_n(plan.ctrl.data() + (size_t)(t - 1) * nu, nu, ctrl);
+  };
+  const SamconMpcResult led = track_samcon_mpc(humanoid(), walk(), o, PdOptions{}, replay);
+  ASSERT_EQ((int)calls.size(), walk().frames - 1);
+  for (int t = 1; t < walk().frames; ++t) EXPECT_EQ(calls[(size_t)t - 1], t);
+  EXPECT_EQ(led.track.simulated.qpos, plan.track.simulated.qpos);
+  EXPECT_EQ(led.offset, plan.offset);
+  EXPECT_EQ(led.ctrl, plan.ctrl);
+
+  const BodyDriver limp = [&](const Env& body, int, double* ctrl) {  // every target at the middle of its range
+    for (int k = 0; k < nu; ++k) ctrl[k] = body.action_to_ctrl(k, 0.0);
+  };
+  SamconMpcOptions o0 = o;
+  o0.driver_share = 0;
+  const SamconMpcResult none = track_samcon_mpc(humanoid(), walk(), o0, PdOptions{}, limp);
+  EXPECT_EQ(none.ctrl, plan.ctrl);
+  EXPECT_EQ(none.offset, plan.offset);
+
+  SamconMpcOptions oh = o;
+  oh.driver_share = 0.5;
+  const SamconMpcResult half = track_samcon_mpc(humanoid(), walk(), oh, PdOptions{}, limp);
+  Env probe(humanoid());
+  int driven = 0, planned = 0, with_offset = 0;
+  for (int t = 0; t + o.window < half.frames_planned; t += o.window) {
+    bool is_limp = true, has_offset = false;
+    for (int k = 0; k < nu; ++k) {
+      is_limp = is_limp && half.ctrl[(size_t)t * nu + k] == std::clamp(probe.action_to_ctrl(k, 0.0),
+                                                                          humanoid()->model()->actuator_ctrlrange[2 * k],
+                                                                          humanoid()->model()->actuator_ctrlrange[2 * k + 1]);
+      has_offset = has_offset || half.offset[(size_t)t * nu + k] != 0.0;
+    }
+    driven += is_limp, planned += !is_limp, with_offset += has_offset;
+  }
+  EXPECT_GT(with_offset, 0);
+  EXPECT_GT(driven, 0);
+  EXPECT_GT(planned, 0);
+
+  const BodyDriver broken = [&](const Env&, int, double* ctrl) { std::fill_n(ctrl, nu, NAN); };
+  EXPECT_THROW(track_samcon_mpc(humanoid(), walk(), o, PdOptions{}, broken), t2m::Error);
+}
+
 TEST(SimSamconMpc, BadOptionsThrow) {
   for (auto f : {+[](SamconMpcOptions& o) { o.samples = 0; }, +[](SamconMpcOptions& o) { o.window = 0; },
                  +[](SamconMpcOptions& o) { o.horizon = 0; }, +[](SamconMpcOptions& o) { o.sigma = -0.1; },
                  +[](SamconMpcOptions& o) { o.carry = 1.5; }, +[](SamconMpcOptions& o) { o.target_noise = -1; },
                  +[](SamconMpcOptions& o) { o.temperature = -0.1; }, +[](SamconMpcOptions& o) { o.size_cost = -1; },
                  +[](SamconMpcOptions& o) { o.change_cost = NAN; }, +[](SamconMpcOptions& o) { o.hinges = {60}; },
-                 +[](SamconMpcOptions& o) { o.hinges = {3, 3}; }, +[](SamconMpcOptions& o) { o.hinges = {-1}; }}) {
+                 +[](SamconMpcOptions& o) { o.hinges = {3, 3}; }, +[](SamconMpcOptions& o) { o.hinges = {-1}; },
+                 +[](SamconMpcOptions& o) { o.driver_share = 1.5; }, +[](SamconMpcOptions& o) { o.driver_share = NAN; }}) {
     SamconMpcOptions o;
     f(o);
     EXPECT_THROW(track_samcon_mpc(humanoid(), walk(), o), t2m::Error);
@@ -241,7 +296,10 @@ TEST(SimSamconMpc, TrackPdCommand) {
                                  std::string("--samcon-mpc --mpc-carry 2"), std::string("--samcon-mpc --resume"),
                                  std::string("--resume --export-dir '" + exp.string() + "'"),
                                  std::string("--content walk"), std::string("--every 0"),
-                                 std::string("--mpc-lower-body"), std::string("--mpc-change-cost 1")}) {
+                                 std::string("--mpc-lower-body"), std::string("--mpc-change-cost 1"),
+                                 std::string("--samcon-mpc --mpc-student-share 0.5"),
+                                 std::string("--mpc-student '" + exp.string() + "/bandai_walk_60.ctrl.json'"),
+                                 std::string("--samcon-mpc --mpc-student '" + exp.string() + "/bandai_walk_60.ctrl.json'")}) {
     EXPECT_NE(run_t2m("track-pd " + bad + " --bvh " + bvh + " --out '" + none.string() + "'", w / "bad.log"), 0)
         << bad;
     const std::string log = read_text(w / "bad.log");

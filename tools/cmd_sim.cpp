@@ -22,6 +22,8 @@
 #include <string>
 #include <vector>
 
+#include "models/bfm/planner_demos.h"
+#include "models/bfm/policy_checkpoint.h"
 #include "models/data/dataset.h"
 #include "models/data/splits.h"
 #include "sim/balance_tracker.h"
@@ -217,6 +219,7 @@ struct PdArgs {
   bool mpc = false;  // --samcon-mpc: the closed-loop search (window, sigma and seed from so)
   sim::SamconMpcOptions mo;
   bool mpc_lower_body = false;  // --mpc-lower-body: offsets on the trunk and legs only (mo.hinges)
+  std::string mpc_student;      // --mpc-student POLICY: DAgger, the policy drives (mo.driver_share of the windows)
   std::string export_dir;
   bool resume = false;  // skip clips whose NAME.ctrl.json is in export_dir (a search's finished clip)
 };
@@ -227,6 +230,8 @@ void run_track_pd(const PdArgs& a) {
   sim::HumanoidOptions ho;
   ho.gain_scale = a.gain_scale;
   auto h = sim::Humanoid::create(ho);
+  std::unique_ptr<t2m::bfm::FbAgent> student;  // --mpc-student (checked before anything is written)
+  if (!a.mpc_student.empty()) student = t2m::bfm::load_policy(a.mpc_student);
   if (!a.export_dir.empty()) fs::create_directories(a.export_dir);
   const int N = (int)clips.size();
   std::vector<json> rows(N);
@@ -271,7 +276,8 @@ void run_track_pd(const PdArgs& a) {
         mo.window = a.so.window, mo.sigma = a.so.sigma, mo.balance = a.bo;
         if (a.mpc_lower_body) mo.hinges = sim::lower_body_actuators(*h);
         mo.seed = a.so.seed + (uint64_t)i;  // per clip
-        sim::SamconMpcResult mr = sim::track_samcon_mpc(h, ref, mo, po);
+        const sim::BodyDriver driver = student ? t2m::bfm::policy_driver(*student, h, ref) : sim::BodyDriver{};
+        sim::SamconMpcResult mr = sim::track_samcon_mpc(h, ref, mo, po, driver);
         export_ctrl(mr.frames_planned, mr.ctrl, mr.offset);
         res[i] = std::move(mr.track);
       } else {
@@ -442,14 +448,18 @@ void add_sim_commands(CLI::App& app) {
   p->add_option("--mpc-change-cost", pd.mo.change_cost, "samcon-mpc: cost per rad² of mean squared change from the previous window's offset (prefers persistent offsets)")->capture_default_str()->check(CLI::NonNegativeNumber);
   p->add_flag("--mpc-lower-body", pd.mpc_lower_body, "samcon-mpc: offsets on the trunk and leg hinges only (30 of 60); arms, neck and head follow the expert");
   p->add_option("--target-noise", pd.mo.target_noise, "samcon-mpc: Gaussian noise on every applied target, rad (robustness)")->capture_default_str()->check(CLI::Range(0.0, 1.0));
+  p->add_option("--mpc-student", pd.mpc_student, "samcon-mpc, DAgger: this BFM policy drives the body (a share --mpc-student-share of the windows, the planner the rest) while the planner still plans every window; the export then labels the student's states with the planner's choice")->check(CLI::ExistingFile);
+  p->add_option("--mpc-student-share", pd.mo.driver_share, "samcon-mpc with --mpc-student: share of the windows the student drives")->capture_default_str()->check(CLI::Range(0.0, 1.0));
   p->callback([p] {
     if (pd.samcon && pd.mpc) throw Error("track-pd: --samcon and --samcon-mpc exclude each other");
     for (const char* o : {"--mpc-samples", "--mpc-horizon", "--mpc-carry", "--mpc-temperature", "--mpc-size-cost",
-                          "--mpc-change-cost", "--mpc-lower-body", "--target-noise"})
+                          "--mpc-change-cost", "--mpc-lower-body", "--target-noise", "--mpc-student", "--mpc-student-share"})
       if (!pd.mpc && p->count(o) > 0) throw Error(std::string("track-pd: ") + o + " needs --samcon-mpc");
     if ((pd.samcon || pd.mpc) && pd.assist != 0) throw Error("track-pd: --samcon / --samcon-mpc do not take --assist");
     if (pd.resume && (pd.export_dir.empty() || !(pd.samcon || pd.mpc)))
       throw Error("track-pd: --resume needs --export-dir and --samcon or --samcon-mpc");
+    if (p->count("--mpc-student-share") > 0 && pd.mpc_student.empty())
+      throw Error("track-pd: --mpc-student-share needs --mpc-student");
     run_track_pd(pd);
   });
 

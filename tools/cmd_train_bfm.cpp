@@ -98,6 +98,12 @@ void run_train_bfm(const TrainBfmArgs& a, CLI::App* app) {
       if (app->count(flag) > 0) set();
   }
   cfg.validate();
+  for (size_t b = 0; !cfg.demo_dir.empty() && b <= cfg.demo_dir.size();) {  // --demos DIR[,DIR...]: before any file
+    const size_t e = std::min(cfg.demo_dir.find(',', b), cfg.demo_dir.size());
+    if (!fs::is_directory(cfg.demo_dir.substr(b, e - b)))
+      throw Error("train bfm: --demos: no directory '" + cfg.demo_dir.substr(b, e - b) + "'");
+    b = e + 1;
+  }
   t2m::nn::write_file_atomic(cfg_path, cfg.to_json().dump(1) + "\n");
 
   const std::string mpath =
@@ -251,8 +257,8 @@ void add_train_bfm(CLI::App& app) {
   c->add_option("--online-capacity", cfg.online_capacity, "online replay capacity")->capture_default_str();
   c->add_option("--demos", cfg.demo_dir,
                 "planner demonstrations: a `t2m track-pd --samcon-mpc --export-dir` directory (NAME.ctrl.json of "
-                "training clips); their rows join the seed data with the planner's labels")
-      ->check(CLI::ExistingDirectory);
+                "training clips), or several separated by commas (e.g. planner runs, then DAgger runs with "
+                "--mpc-student); their rows join the seed data with the planner's labels");
   c->add_option("--demo-fraction", cfg.demo_fraction,
                 "with --demos: share of the seed rows of each batch drawn from the demonstrations")
       ->capture_default_str()

@@ -8,9 +8,11 @@
 #include <map>
 #include <set>
 
+#include "autograd/no_grad.h"
 #include "models/data/dataset.h"
 #include "sim/env.h"
 #include "sim/pd_tracker.h"
+#include "sim/observation.h"
 #include "sim/retarget.h"
 
 namespace t2m::bfm {
@@ -76,45 +78,52 @@ RunRows replay_run(const std::shared_ptr<const sim::Humanoid>& h, const RefMotio
 
 }  // namespace
 
-PlannerDemos load_planner_demos(const std::string& dir, const RefMotions& refs, const PlannerDemoOptions& opt) {
-  if (!fs::is_directory(dir)) throw Error("planner demos: no directory " + dir);
+PlannerDemos load_planner_demos(const std::string& dirs, const RefMotions& refs, const PlannerDemoOptions& opt) {
   if (opt.drop_before_fail < 0) throw Error("planner demos: drop_before_fail must be >= 0");
   std::map<std::string, int> by_name;
   for (int c = 0; c < refs.clips(); ++c) by_name[refs.names[(size_t)c]] = c;
-  std::vector<std::string> files;
-  for (const auto& e : fs::directory_iterator(dir)) {
-    const std::string f = e.path().filename().string();
-    if (f.size() > std::strlen(kSuffix) && f.compare(f.size() - std::strlen(kSuffix), std::string::npos, kSuffix) == 0)
-      files.push_back(f);
-  }
-  std::sort(files.begin(), files.end());
   PlannerDemos d;
-  for (const std::string& f : files) {
-    const std::string name = f.substr(0, f.size() - std::strlen(kSuffix));
-    const auto it = by_name.find(name);
-    if (it == by_name.end()) {
-      d.skipped.push_back(f);
-      continue;
+  size_t ctrl_files = 0;
+  for (size_t b = 0; b <= dirs.size();) {  // the comma-separated directories, in order
+    const size_t e = std::min(dirs.find(',', b), dirs.size());
+    const std::string dir = dirs.substr(b, e - b);
+    b = e + 1;
+    if (!fs::is_directory(dir)) throw Error("planner demos: no directory " + dir);
+    std::vector<std::string> files;
+    for (const auto& en : fs::directory_iterator(dir)) {
+      const std::string f = en.path().filename().string();
+      if (f.size() > std::strlen(kSuffix) && f.compare(f.size() - std::strlen(kSuffix), std::string::npos, kSuffix) == 0)
+        files.push_back(f);
     }
-    const int c = it->second;
-    sim::CtrlSequence s = sim::load_ctrl_json(dir + "/" + f);
-    if (s.steps() != refs.frames(c) - 1)
-      throw Error("planner demos: " + f + " has " + std::to_string(s.steps()) + " control steps, its clip " +
-                  std::to_string(refs.frames(c)) + " frames (a run on another reference?)");
-    const bool failed = s.frames_searched < s.steps();
-    const int n = failed ? std::max(0, s.frames_searched - opt.drop_before_fail) : s.frames_searched;
-    d.failed_runs += failed;
-    if (n == 0) continue;
-    d.files.push_back(f);
-    d.clip.push_back(c);
-    const std::string qp = dir + "/" + name + ".qpos.json";
-    d.qpos_paths.push_back(fs::exists(qp) ? qp : std::string());
-    d.steps.push_back(n);
-    d.rows += n;
-    d.seq.push_back(std::move(s));
+    std::sort(files.begin(), files.end());
+    ctrl_files += files.size();
+    for (const std::string& f : files) {
+      const std::string name = f.substr(0, f.size() - std::strlen(kSuffix));
+      const auto it = by_name.find(name);
+      if (it == by_name.end()) {
+        d.skipped.push_back(f);
+        continue;
+      }
+      const int c = it->second;
+      sim::CtrlSequence s = sim::load_ctrl_json(dir + "/" + f);
+      if (s.steps() != refs.frames(c) - 1)
+        throw Error("planner demos: " + dir + "/" + f + " has " + std::to_string(s.steps()) + " control steps, its clip " +
+                    std::to_string(refs.frames(c)) + " frames (a run on another reference?)");
+      const bool failed = s.frames_searched < s.steps();
+      const int n = failed ? std::max(0, s.frames_searched - opt.drop_before_fail) : s.frames_searched;
+      d.failed_runs += failed;
+      if (n == 0) continue;
+      d.files.push_back(f);
+      d.clip.push_back(c);
+      const std::string qp = dir + "/" + name + ".qpos.json";
+      d.qpos_paths.push_back(fs::exists(qp) ? qp : std::string());
+      d.steps.push_back(n);
+      d.rows += n;
+      d.seq.push_back(std::move(s));
+    }
   }
   if (d.files.empty())
-    throw Error("planner demos: no usable NAME.ctrl.json in " + dir + " (" + std::to_string(files.size()) +
+    throw Error("planner demos: no usable NAME.ctrl.json in " + dirs + " (" + std::to_string(ctrl_files) +
                 " ctrl files, " + std::to_string(d.skipped.size()) + " not naming a reference clip)");
   return d;
 }
@@ -157,6 +166,29 @@ std::vector<char> planner_owned_clips(const RefMotions& refs, const PlannerDemos
   std::vector<char> owned((size_t)refs.clips(), 0);
   for (int c = 0; c < refs.clips(); ++c) owned[(size_t)c] = contents.count(data::clip_content(refs.names[(size_t)c])) > 0;
   return owned;
+}
+
+sim::BodyDriver policy_driver(FbAgent& agent, const std::shared_ptr<const sim::Humanoid>& h,
+                              const sim::QposTrajectory& ref) {
+  const int D = agent.config().obs_dim, d = agent.config().z_dim, A = agent.config().action_dim;
+  if (h->model()->nu != A || sim::observation_dim((int)h->tracked_bodies().size()) != D)
+    throw Error("policy driver: the policy's dims do not match the humanoid");
+  const std::vector<float> states = sim::replay_observations(*h, ref);  // [T, D]
+  Tensor z;
+  {
+    ag::NoGradGuard ng;
+    z = agent.infer_tracking_z(Tensor::from_vector(states, {(int64_t)ref.frames, (int64_t)D})).contiguous();  // [T-1, d]
+  }
+  auto obs = std::make_shared<Tensor>(Tensor::empty({1, D}));
+  auto zt = std::make_shared<Tensor>(Tensor::empty({1, d}));
+  return [&agent, z, obs, zt, d, A](const sim::Env& body, int t, double* ctrl) {
+    if (t < 1 || t > z.shape()[0]) throw Error("policy driver: frame " + std::to_string(t) + " outside the clip");
+    body.observe(obs->data<float>());
+    std::copy_n(z.data<float>() + (int64_t)(t - 1) * d, d, zt->data<float>());
+    ag::NoGradGuard ng;
+    const Tensor a = agent.actor_mean(*obs, *zt).contiguous();
+    for (int k = 0; k < A; ++k) ctrl[k] = body.action_to_ctrl(k, a.data<float>()[k]);
+  };
 }
 
 }  // namespace t2m::bfm

@@ -6,6 +6,7 @@
 // there, clamp(balance expert targets + offset), in the policy's [-1, 1] action units.
 //
 //   PlannerDemos d = load_planner_demos(dir, refs);    // DIR/*.ctrl.json whose NAME is one of the reference clips
+//                                                      // (dir: one directory or several, "DIR1,DIR2", in order)
 //   ReplayBuffer buf(d.rows, D, A, /*with_expert_labels=*/true);
 //   replay_planner_demos(h, refs, d, buf);              // rows (s_t, applied a_t, s_t+1, 1, clip, t, label)
 //
@@ -24,10 +25,12 @@
 #include <string>
 #include <vector>
 
+#include "models/bfm/fb_agent.h"
 #include "models/bfm/ref_motions.h"
 #include "models/bfm/replay_buffer.h"
 #include "sim/balance_tracker.h"
 #include "sim/ctrl_file.h"
+#include "sim/samcon_mpc.h"
 
 namespace t2m::bfm {
 
@@ -53,6 +56,14 @@ PlannerDemos load_planner_demos(const std::string& dir, const RefMotions& refs, 
 // needs expert labels and the humanoid's dims.
 void replay_planner_demos(const std::shared_ptr<const sim::Humanoid>& h, const RefMotions& refs,
                           const PlannerDemos& demos, ReplayBuffer& buf, const PlannerDemoOptions& opt = {});
+
+// DAgger with the planner (docs/BFM.md, session 25): the policy as the driver of the planner's tracked body
+// (sim::BodyDriver), tracking ref as t2m eval track does: z = Eq 2 on ref's kinematic-replay states (L = the
+// agent's track_window), the step towards frame t applies mu(s, z_{t-1}) (s = the body's observation), mapped to
+// actuator targets. `t2m track-pd --samcon-mpc --mpc-student POLICY` exports such runs; replay_planner_demos then
+// labels the student's states with the planner's choice there. The agent must outlive the driver.
+sim::BodyDriver policy_driver(FbAgent& agent, const std::shared_ptr<const sim::Humanoid>& h,
+                              const sim::QposTrajectory& ref);
 
 // Per reference clip: 1 when its content label (sim name dataset-N_<content>_...) is that of a demonstrated clip.
 std::vector<char> planner_owned_clips(const RefMotions& refs, const PlannerDemos& demos);
