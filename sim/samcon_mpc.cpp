@@ -27,8 +27,8 @@ void check_options(const SamconMpcOptions& o) {
                 std::to_string(o.window) + ", horizon " + std::to_string(o.horizon) + ", sigma " +
                 std::to_string(o.sigma) + ", carry " + std::to_string(o.carry) + ", target noise " +
                 std::to_string(o.target_noise) + ", temperature " + std::to_string(o.temperature) +
-                ", size cost " + std::to_string(o.size_cost) + ", change cost " + std::to_string(o.change_cost) + ", driver share " +
-                std::to_string(o.driver_share) +
+                ", size cost " + std::to_string(o.size_cost) + ", change cost " + std::to_string(o.change_cost) +
+                ", driver share " + std::to_string(o.driver_share) +
                 "): need samples, window, horizon >= 1, finite sigma, noise, temperature and costs >= 0, carry and "
                 "driver share in [0, 1]");
 }

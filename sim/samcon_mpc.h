@@ -21,8 +21,9 @@
 // Cost per second of motion: samples × window × horizon × 10 control steps (128 × 15: ~6 s on 2 threads).
 // DAgger (docs/BFM.md, session 25): with a BodyDriver, another controller (a student policy) drives the tracked
 // body in a share driver_share of the windows (drawn per window from the seed, except at shares 0 and 1: share 0
-// is the run without a driver, bit for bit) and the planner's choice in the rest, while the planner still plans every window from the body's state: res.offset is then the planner's answer
-// (the label) in the states the driver leads the body into, res.ctrl what was applied.
+// is the run without a driver, bit for bit) and the planner's choice in the rest, while the planner still plans
+// every window from the body's state: res.offset is then the planner's answer (the label) in the states the driver
+// leads the body into, res.ctrl what was applied.
 #pragma once
 #include <cstdint>
 #include <functional>

@@ -233,6 +233,8 @@ TEST(BfmPlannerDemos, FailedRunsDropTheirLastSteps) {
   EXPECT_EQ(both.rows, 20 + 15);
   EXPECT_EQ(both.failed_runs, 2);
   EXPECT_THROW(load_planner_demos(d + "," + d2 + "/missing", refs(), o), Error);
+  EXPECT_EQ(demo_directories("a,b/c,"), (std::vector<std::string>{"a", "b/c", ""}));
+  EXPECT_EQ(demo_directories("a"), (std::vector<std::string>{"a"}));
   o.drop_before_fail = 30;  // nothing left: no usable run
   EXPECT_THROW(load_planner_demos(d, refs(), o), Error);
   o.drop_before_fail = -1;

@@ -16,6 +16,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "models/bfm/planner_demos.h"
 #include "models/bfm/policy_checkpoint.h"
 #include "models/bfm/ref_motions.h"
 #include "models/bfm/track_eval.h"
@@ -98,12 +99,9 @@ void run_train_bfm(const TrainBfmArgs& a, CLI::App* app) {
       if (app->count(flag) > 0) set();
   }
   cfg.validate();
-  for (size_t b = 0; !cfg.demo_dir.empty() && b <= cfg.demo_dir.size();) {  // --demos DIR[,DIR...]: before any file
-    const size_t e = std::min(cfg.demo_dir.find(',', b), cfg.demo_dir.size());
-    if (!fs::is_directory(cfg.demo_dir.substr(b, e - b)))
-      throw Error("train bfm: --demos: no directory '" + cfg.demo_dir.substr(b, e - b) + "'");
-    b = e + 1;
-  }
+  if (!cfg.demo_dir.empty())  // --demos DIR[,DIR...]: checked before any file is written
+    for (const std::string& d : bfm::demo_directories(cfg.demo_dir))
+      if (!fs::is_directory(d)) throw Error("train bfm: --demos: no directory '" + d + "'");
   t2m::nn::write_file_atomic(cfg_path, cfg.to_json().dump(1) + "\n");
 
   const std::string mpath =

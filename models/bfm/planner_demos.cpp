@@ -78,16 +78,23 @@ RunRows replay_run(const std::shared_ptr<const sim::Humanoid>& h, const RefMotio
 
 }  // namespace
 
+std::vector<std::string> demo_directories(const std::string& dirs) {
+  std::vector<std::string> out;
+  for (size_t b = 0; b <= dirs.size();) {
+    const size_t e = std::min(dirs.find(',', b), dirs.size());
+    out.push_back(dirs.substr(b, e - b));
+    b = e + 1;
+  }
+  return out;
+}
+
 PlannerDemos load_planner_demos(const std::string& dirs, const RefMotions& refs, const PlannerDemoOptions& opt) {
   if (opt.drop_before_fail < 0) throw Error("planner demos: drop_before_fail must be >= 0");
   std::map<std::string, int> by_name;
   for (int c = 0; c < refs.clips(); ++c) by_name[refs.names[(size_t)c]] = c;
   PlannerDemos d;
   size_t ctrl_files = 0;
-  for (size_t b = 0; b <= dirs.size();) {  // the comma-separated directories, in order
-    const size_t e = std::min(dirs.find(',', b), dirs.size());
-    const std::string dir = dirs.substr(b, e - b);
-    b = e + 1;
+  for (const std::string& dir : demo_directories(dirs)) {
     if (!fs::is_directory(dir)) throw Error("planner demos: no directory " + dir);
     std::vector<std::string> files;
     for (const auto& en : fs::directory_iterator(dir)) {

@@ -52,6 +52,9 @@ struct PlannerDemos {
 
 PlannerDemos load_planner_demos(const std::string& dir, const RefMotions& refs, const PlannerDemoOptions& opt = {});
 
+// The directories of a "DIR1,DIR2,..." list, in order (empty names kept: they are no directory).
+std::vector<std::string> demo_directories(const std::string& dirs);
+
 // Appends the rows of every run (in file-name order; the replays run in parallel, OpenMP over runs) to buf, which
 // needs expert labels and the humanoid's dims.
 void replay_planner_demos(const std::shared_ptr<const sim::Humanoid>& h, const RefMotions& refs,
