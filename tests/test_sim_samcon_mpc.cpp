@@ -308,3 +308,41 @@ TEST(SimSamconMpc, TrackPdCommand) {
   }
   fs::remove_all(w);
 }
+
+// Clip selection of the sim commands: --every K --every-from J takes the J-th, (J+K)-th, ... clip by name, so that
+// demonstration runs can be split into disjoint, separately reproducible directories.
+TEST(SimSamconMpc, EveryFromSelectsTheClipsBetween) {
+  namespace fs = std::filesystem;
+  using t2m::test::read_text;
+  using t2m::test::run_t2m;
+  if (!fs::exists(t2m::test::t2m_binary())) GTEST_SKIP() << "t2m binary not built next to the test";
+  const fs::path w = fs::temp_directory_path() / ("t2m_every_from_" + std::to_string(::getpid()));
+  fs::remove_all(w);
+  fs::create_directories(w / "clips");
+  for (int i = 0; i < 5; ++i)
+    fs::copy_file(fs::path(T2M_SOURCE_DIR) / "tests/fixtures/bvh/bandai_walk_60.bvh",
+                  w / "clips" / ("clip_" + std::to_string(i) + ".bvh"));
+  const std::string base = "track-pd --split all --threads 1 --clips '" + (w / "clips").string() + "' --out '";
+  const auto names = [&](const std::string& flags) {
+    const fs::path out = w / "report.json";
+    EXPECT_EQ(run_t2m(base + out.string() + "' " + flags, w / "run.log"), 0) << read_text(w / "run.log");
+    std::vector<std::string> n;
+    const nlohmann::json report = nlohmann::json::parse(read_text(out));
+    for (const auto& c : report["clips"]) n.push_back(c["name"]);
+    return n;
+  };
+  EXPECT_EQ(names("--every 2"), (std::vector<std::string>{"clip_0", "clip_2", "clip_4"}));
+  EXPECT_EQ(names("--every 2 --every-from 1"), (std::vector<std::string>{"clip_1", "clip_3"}));
+  EXPECT_EQ(names("--every 3 --every-from 2"), (std::vector<std::string>{"clip_2"}));
+  const fs::path none = w / "none.json";
+  for (const std::string& bad : {std::string("--every 2 --every-from 2"), std::string("--every-from 1"),
+                                 std::string("--every 3 --every-from -1")}) {
+    EXPECT_NE(run_t2m("track-pd --split all --clips '" + (w / "clips").string() + "' " + bad + " --out '" + none.string() + "'",
+                      w / "bad.log"),
+              0)
+        << bad;
+    EXPECT_EQ(read_text(w / "bad.log").rfind("t2m: ", 0), 0u) << read_text(w / "bad.log");
+    EXPECT_FALSE(fs::exists(none)) << bad;
+  }
+  fs::remove_all(w);
+}

@@ -55,6 +55,7 @@ struct ClipArgs {
   int max_clips = 0;
   std::vector<std::string> content;  // content labels kept (empty = all)
   int every = 1;                     // every k-th clip of the selection
+  int every_from = 0;                // ... starting at this index (0 <= every_from < every)
   int threads = 0;
   std::string out;
 };
@@ -69,6 +70,10 @@ void add_clip_options(CLI::App* c, ClipArgs& a, const char* default_split) {
   c->add_option("--every", a.every, "keep every k-th of the selected clips (by name, from the first)")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  c->add_option("--every-from", a.every_from,
+                "with --every K: start at the J-th of the selected clips (0 <= J < K; --every 12 --every-from 6 takes "
+                "the clips between those of --every 12)")
+      ->capture_default_str();
   c->add_option("--max-clips", a.max_clips, "use at most N clips (0 = all), after sorting by name");
   c->add_option("--threads", a.threads, "OpenMP threads (0 = default)");
   c->add_option("--out", a.out, "write a JSON summary here");
@@ -120,9 +125,12 @@ std::vector<std::pair<std::string, std::string>> select_clips(const ClipArgs& a)
     }
     sel = kept;
   }
+  if (a.every_from < 0 || a.every_from >= a.every)
+    throw Error("--every-from " + std::to_string(a.every_from) + ": need 0 <= J < --every (" +
+                std::to_string(a.every) + ")");
   if (a.every > 1) {
     std::vector<std::pair<std::string, std::string>> kept;
-    for (size_t i = 0; i < sel.size(); i += (size_t)a.every) kept.push_back(sel[i]);
+    for (size_t i = (size_t)a.every_from; i < sel.size(); i += (size_t)a.every) kept.push_back(sel[i]);
     sel = kept;
   }
   if (a.max_clips > 0 && (int)sel.size() > a.max_clips) sel.resize(a.max_clips);
