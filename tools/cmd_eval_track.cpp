@@ -3,7 +3,10 @@
 // (sim::TrackingScorer), plus the Eq 21 action KL between the Eq 2 latent sequences at two window lengths.
 //   t2m eval track [--policy models/checkpoints/bfm_small.t2mckpt] [--split test] [--clips N] [--kl-window 4]
 //                  [--track-window L] [--no-pd] [--expert [--torque-at-hips-only]] [--stand SECONDS] [--threads T]
+//                  [--z-search [--search-samples 64] [--search-horizon 5] [--search-sigma 0.3] [--search-seed 1]]
 //                  [--out RESULT.json]
+// --z-search: one more row, "BFM + z search": the same policy driven by an evaluation-time planner over its
+// latent (bfm::track_bfm_search; it simulates candidates ahead, so it is a planner, reported apart from the BFM row).
 // --clips N: N clips spread evenly over the split (sorted by name, fixed stride), 0 = all.
 // --stand S: standing still instead of the clips: qpos0 and the first frame of every selected clip, each held
 // still for S seconds (bfm::append_static_holds; z = Eq 2 on a static reference = B(s) of the pose).
@@ -17,6 +20,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "models/bfm/latent_search.h"
 #include "models/bfm/policy_checkpoint.h"
 #include "models/bfm/track_eval.h"
 #include "models/data/dataset.h"
@@ -40,6 +44,8 @@ struct EvalTrackArgs {
   bool no_pd = false;
   bool expert = false;
   bool hips_only = false;  // the expert's root torque through the stance hips only (--seed-expert balance-hips)
+  bool z_search = false;   // also the BFM with an evaluation-time search over z (models/bfm/latent_search.h)
+  bfm::LatentSearchOptions search;
 };
 
 json rows_json(const bfm::RefMotions& refs, const std::vector<t2m::sim::PdResult>& r) {
@@ -68,6 +74,7 @@ void run_eval_track(const EvalTrackArgs& a) {
   if (a.clips < 0) throw Error("eval track: --clips must be >= 0");
   if (a.kl_window < 1) throw Error("eval track: --kl-window must be >= 1");
   if (a.track_window < 0) throw Error("eval track: --track-window must be >= 0 (0 = the policy's own window)");
+  if (a.z_search) bfm::check_search_options(a.search);
   if (!fs::exists(a.policy)) throw Error("eval track: no policy file '" + a.policy + "' (train one with `t2m train bfm --export`)");
   json info;
   auto agent = bfm::load_policy(a.policy, &info);
@@ -127,6 +134,9 @@ void run_eval_track(const EvalTrackArgs& a) {
     if (!content.empty()) by_content[key] = bfm::summarize_tracking_by_group(res, content);
     print_row(label, s);
   };
+  if (a.z_search)  // the policy with an evaluation-time planner over z (not the policy's own tracking)
+    baseline_row("BFM + z search", "bfm_search",
+                 [&] { return bfm::track_bfm_search(*agent, h, refs, a.search, {}, track_window); });
   if (!a.no_pd) baseline_row("PD", "pd", [&] { return bfm::track_pd_all(h, refs); });
   t2m::sim::BalanceOptions bal;
   bal.torque_at_hips_only = a.hips_only;
@@ -196,6 +206,19 @@ void add_eval_track(CLI::App& app) {
               "the expert (--expert) applies its root torque through the stance hips only: the teacher of "
               "`train bfm --seed-expert balance-hips`")
       ->needs(expert);
+  CLI::Option* zs = c->add_flag(
+      "--z-search", a.z_search,
+      "also the BFM with an evaluation-time search over z: per 0.1 s window, candidate offsets to the Eq 2 latents "
+      "simulated ahead with the policy, the best tracking one applied (models/bfm/latent_search.h; a planner, slow: "
+      "~10 s per 3 s clip on 2 threads)");
+  c->add_option("--search-samples", a.search.samples, "z search: candidates per window")->capture_default_str()->needs(zs);
+  c->add_option("--search-horizon", a.search.horizon, "z search: look-ahead in 0.1 s windows")
+      ->capture_default_str()
+      ->needs(zs);
+  c->add_option("--search-sigma", a.search.sigma, "z search: std of the offset's step per latent coordinate")
+      ->capture_default_str()
+      ->needs(zs);
+  c->add_option("--search-seed", a.search.seed, "z search: seed (clip c uses seed + c)")->capture_default_str()->needs(zs);
   c->add_option("--threads", a.threads, "threads (0 = default)");
   c->add_option("--out", a.out, "write the JSON result here (atomic)");
   c->callback([] { run_eval_track(a); });

@@ -13,8 +13,7 @@
 
 namespace t2m::bfm {
 
-namespace {
-void check_refs(const FbAgent* agent, const sim::Humanoid& h, const RefMotions& refs) {
+void check_tracking_refs(const FbAgent* agent, const sim::Humanoid& h, const RefMotions& refs) {
   if (refs.clips() == 0) throw Error("track eval: no reference clips");
   if (refs.nq != h.model()->nq || refs.nv != h.model()->nv)
     throw Error("track eval: reference motions of another model (nq " + std::to_string(refs.nq) + ")");
@@ -29,11 +28,10 @@ Tensor clip_states(const RefMotions& refs, int c) {
   std::memcpy(s.data<float>(), refs.obs_at(c, 0), sizeof(float) * T * D);
   return s;
 }
-}  // namespace
 
 std::vector<sim::PdResult> track_bfm(FbAgent& agent, std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs,
                                      const sim::PdOptions& opt, int window) {
-  check_refs(&agent, *h, refs);
+  check_tracking_refs(&agent, *h, refs);
   ag::NoGradGuard ng;
   const int N = refs.clips(), D = refs.obs_dim, A = h->model()->nu, d = agent.config().z_dim;
   std::vector<Tensor> z(N);  // [T-1, d] per clip
@@ -86,7 +84,7 @@ namespace {
 template <class Track>
 std::vector<sim::PdResult> track_all(std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs, const char* who,
                                      Track track) {
-  check_refs(nullptr, *h, refs);
+  check_tracking_refs(nullptr, *h, refs);
   const int N = refs.clips();
   std::vector<sim::PdResult> out(N);
   std::vector<std::string> err(N);
@@ -119,7 +117,7 @@ std::vector<sim::PdResult> track_balance_all(std::shared_ptr<const sim::Humanoid
 
 std::vector<int> holdable_start_clips(std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs, int frames,
                                       const sim::BalanceOptions& bal) {
-  check_refs(nullptr, *h, refs);
+  check_tracking_refs(nullptr, *h, refs);
   if (frames < 2) throw Error("holdable_start_clips: frames must be >= 2, got " + std::to_string(frames));
   const int N = refs.clips();
   std::vector<char> ok(N, 0);
@@ -136,7 +134,7 @@ std::vector<int> holdable_start_clips(std::shared_ptr<const sim::Humanoid> h, co
 
 std::vector<double> expert_imitation_rms(FbAgent& agent, std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs,
                                          const sim::BalanceOptions& bal) {
-  check_refs(&agent, *h, refs);
+  check_tracking_refs(&agent, *h, refs);
   ag::NoGradGuard ng;
   const int A = h->model()->nu;
   std::vector<double> se((size_t)A, 0.0);

@@ -27,6 +27,11 @@
 
 namespace t2m::bfm {
 
+// The reference states s_0..s_{T-1} of clip c, [T, obs_dim] (what Eq 2 encodes).
+Tensor clip_states(const RefMotions& refs, int c);
+// Throws t2m::Error when refs is empty, of another model than h, or (agent given) of other obs / action dims.
+void check_tracking_refs(const FbAgent* agent, const sim::Humanoid& h, const RefMotions& refs);
+
 // window: L of Eq 2 for the latents (0 = the agent's track_window).
 std::vector<sim::PdResult> track_bfm(FbAgent& agent, std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs,
                                      const sim::PdOptions& opt = {}, int window = 0);

@@ -1,0 +1,138 @@
+// latent_search.cpp — the window planner over z of latent_search.h: candidates stepped in lockstep, the policy run
+// on one batch per control step, the physics in parallel.
+#include "models/bfm/latent_search.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <random>
+#include <string>
+
+#include "autograd/no_grad.h"
+#include "models/bfm/track_eval.h"
+#include "sim/env.h"
+
+namespace t2m::bfm {
+void check_search_options(const LatentSearchOptions& o) {
+  if (o.samples < 1 || o.window < 1 || o.horizon < 1 || !(o.sigma >= 0) || !std::isfinite(o.sigma) ||
+      !(o.carry >= 0 && o.carry <= 1))
+    throw Error("track_bfm_search: bad options (samples " + std::to_string(o.samples) + ", window " +
+                std::to_string(o.window) + ", horizon " + std::to_string(o.horizon) + ", sigma " +
+                std::to_string(o.sigma) + ", carry " + std::to_string(o.carry) +
+                "): need samples, window, horizon >= 1, finite sigma >= 0, carry in [0, 1]");
+}
+
+namespace {
+
+// z' = sqrt(d) (z + δ) / |z + δ| [d]; z itself when δ = 0 (bit for bit the latent of plain tracking).
+void offset_latent(const float* z, const double* delta, int d, float* out) {
+  if (std::all_of(delta, delta + d, [](double v) { return v == 0.0; })) {
+    std::copy_n(z, d, out);
+    return;
+  }
+  double n2 = 0;
+  for (int k = 0; k < d; ++k) {
+    out[k] = (float)((double)z[k] + delta[k]);
+    n2 += (double)out[k] * out[k];
+  }
+  const float s = n2 > 0 ? (float)(std::sqrt((double)d / n2)) : 1.0f;
+  for (int k = 0; k < d; ++k) out[k] *= s;
+}
+
+// mean_j |p_sim,j - p_ref,j|² of one frame; *worst = max(*worst, max_j |p_sim,j - p_ref,j|) (infinite on divergence).
+double frame_cost(const sim::Env& env, const std::vector<int>& bodies, const float* ref, double* worst) {
+  double sum = 0, mx = 0;
+  for (size_t j = 0; j < bodies.size(); ++j) {
+    const double* p = env.data()->xpos + 3 * bodies[j];
+    double e2 = 0;
+    for (int q = 0; q < 3; ++q) e2 += (p[q] - ref[3 * j + q]) * (p[q] - ref[3 * j + q]);
+    sum += e2, mx = std::max(mx, std::sqrt(e2));
+  }
+  *worst = std::max(*worst, env.diverged() || !std::isfinite(mx) ? INFINITY : mx);
+  return sum / (double)bodies.size();
+}
+
+}  // namespace
+
+std::vector<sim::PdResult> track_bfm_search(FbAgent& agent, std::shared_ptr<const sim::Humanoid> h,
+                                            const RefMotions& refs, const LatentSearchOptions& opt,
+                                            const sim::PdOptions& pd, int window) {
+  check_search_options(opt);
+  check_tracking_refs(&agent, *h, refs);
+  if (window < 0) throw Error("track_bfm_search: window must be >= 0 (0 = the agent's track_window)");
+  ag::NoGradGuard ng;
+  const int S = opt.samples, D = refs.obs_dim, A = h->model()->nu, d = agent.config().z_dim;
+  const int L = window > 0 ? window : agent.config().track_window;
+  const std::vector<int>& bodies = h->tracked_bodies();
+  const size_t J = bodies.size();
+  std::vector<std::unique_ptr<sim::Env>> envs;  // one per candidate
+  for (int i = 0; i < S; ++i) envs.push_back(std::make_unique<sim::Env>(h));
+  sim::Env body(h);  // the tracked body
+  Tensor obs = Tensor::empty({S, D}), zc = Tensor::empty({S, d}), obs1 = Tensor::empty({1, D}), z1 = Tensor::empty({1, d});
+  std::vector<double> delta((size_t)S * d), prev((size_t)d), zero((size_t)d, 0.0), cost((size_t)S), worst((size_t)S);
+  sim::EnvState now;
+  std::vector<sim::PdResult> out;
+  for (int c = 0; c < refs.clips(); ++c) {
+    const int T = refs.frames(c);
+    const Tensor z = agent.infer_tracking_z(clip_states(refs, c), L).contiguous();  // [T-1, d], Eq 2
+    const float* zt = z.data<float>();
+    const sim::QposTrajectory traj = refs.trajectory(c);
+    body.reset(traj.qpos.data(), traj.qvel.data(), nullptr);
+    sim::TrackingScorer score(*h, traj, pd);
+    score.add_frame(body);
+    std::mt19937_64 rng(opt.seed + (uint64_t)c);
+    std::normal_distribution<double> normal(0.0, 1.0);
+    std::fill(prev.begin(), prev.end(), 0.0);
+    bool planning = true;
+    for (int t = 0; t + 1 < T;) {
+      const int w = std::min(opt.window, T - 1 - t);
+      if (planning) {
+        const int steps = std::min(opt.window * opt.horizon, T - 1 - t);
+        for (int i = 0; i < S; ++i)
+          for (int k = 0; k < d; ++k)
+            delta[(size_t)i * d + k] = i == 0 ? 0.0 : i == 1 ? prev[k] : opt.carry * prev[k] + opt.sigma * normal(rng);
+        body.save_state(now);
+        for (int i = 0; i < S; ++i) {
+          envs[i]->restore_state(now);
+          envs[i]->observe(obs.data<float>() + (size_t)i * D);
+          cost[i] = 0, worst[i] = 0;
+        }
+        for (int s = 1; s <= steps; ++s) {  // frame t + s; its latent z_{t+s-1}
+          for (int i = 0; i < S; ++i)
+            offset_latent(zt + (size_t)(t + s - 1) * d, delta.data() + (size_t)i * d, d, zc.data<float>() + (size_t)i * d);
+          const Tensor a = agent.actor_mean(obs, zc).contiguous();  // [S, A]
+          const float* ref = refs.body_pos.data() + (size_t)refs.global_frame(c, t + s) * J * 3;
+#pragma omp parallel for schedule(dynamic)
+          for (int i = 0; i < S; ++i) {
+            if (!(worst[i] < pd.fail_distance)) continue;  // a dropped candidate stops simulating
+            envs[i]->step(a.data<float>() + (size_t)i * A, obs.data<float>() + (size_t)i * D);
+            cost[i] += frame_cost(*envs[i], bodies, ref, &worst[i]);
+          }
+        }
+        int best = 0;  // survivors first, then the cost, then the index
+        const auto better = [&](int x, int y) {
+          const bool sx = worst[x] < pd.fail_distance, sy = worst[y] < pd.fail_distance;
+          return sx != sy ? sx : cost[x] < cost[y];
+        };
+        for (int i = 1; i < S; ++i)
+          if (better(i, best)) best = i;
+        std::copy_n(delta.begin() + (size_t)best * d, d, prev.begin());
+      }
+      bool failed = false;
+      for (int s = 1; s <= w; ++s) {
+        body.observe(obs1.data<float>());
+        offset_latent(zt + (size_t)(t + s - 1) * d, planning ? prev.data() : zero.data(), d, z1.data<float>());
+        const Tensor a = agent.actor_mean(obs1, z1).contiguous();
+        body.step(a.data<float>(), nullptr);
+        score.add_frame(body);
+        failed = failed || score.last_frame_error() >= pd.fail_distance;
+      }
+      t += w;
+      if (failed) planning = false;
+    }
+    out.push_back(score.result());
+  }
+  return out;
+}
+
+}  // namespace t2m::bfm

@@ -1,0 +1,138 @@
+// test_bfm_latent_search.cpp — BFM tracking with the evaluation-time search over z (models/bfm/latent_search.h):
+// one candidate is plain Eq 2 tracking bit for bit, the search tracks closer than plain tracking, the result does
+// not depend on the thread count, bad options and references are refused; `t2m eval track` refuses bad search flags.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "models/bfm/latent_search.h"
+#include "models/bfm/policy_checkpoint.h"
+#include "models/bfm/track_eval.h"
+#include "sim/retarget.h"
+#include "tensor/parallel.h"
+#include "test_cli_util.h"
+
+using namespace t2m;
+using namespace t2m::bfm;
+
+namespace {
+std::shared_ptr<const sim::Humanoid> humanoid() {
+  static auto h = sim::Humanoid::create();
+  return h;
+}
+// A slow sway of six hinges around the standing pose (frames at 30 Hz).
+sim::QposTrajectory swaying(const sim::Humanoid& h, int frames, double amp) {
+  sim::QposTrajectory q;
+  q.frames = frames;
+  q.nq = h.model()->nq;
+  q.nv = h.model()->nv;
+  for (int t = 0; t < frames; ++t) {
+    std::vector<double> p(h.model()->qpos0, h.model()->qpos0 + q.nq);
+    for (int k = 0; k < 6; ++k) p[h.hinge_qpos(k)] += amp * std::sin(0.2 * t + k);
+    q.qpos.insert(q.qpos.end(), p.begin(), p.end());
+  }
+  sim::trajectory_velocities(h, q);
+  return q;
+}
+RefMotions refs_of(const std::vector<std::pair<int, double>>& clips) {
+  RefMotions r;
+  for (size_t i = 0; i < clips.size(); ++i)
+    r.add(*humanoid(), "clip" + std::to_string(i), swaying(*humanoid(), clips[i].first, clips[i].second));
+  return r;
+}
+FbConfig tiny() {
+  FbConfig c;
+  c.hidden = 16;
+  c.b_hidden = 16;
+  c.z_dim = 6;
+  c.track_window = 3;
+  return c;
+}
+}  // namespace
+
+TEST(BfmLatentSearch, OneCandidateIsPlainTrackingBitForBit) {
+  FbAgent agent(tiny(), 1);
+  const RefMotions r = refs_of({{25, 0.1}});
+  LatentSearchOptions o;
+  o.samples = 1;  // only δ = 0: the latents of Eq 2 unchanged
+  const auto searched = track_bfm_search(agent, humanoid(), r, o);
+  const auto plain = track_bfm(agent, humanoid(), r);
+  ASSERT_EQ(searched.size(), 1u);
+  EXPECT_EQ(searched[0].simulated.qpos, plain[0].simulated.qpos);
+  EXPECT_EQ(searched[0].mpjpe_m, plain[0].mpjpe_m);
+  EXPECT_EQ(searched[0].frames_ok, plain[0].frames_ok);
+}
+
+TEST(BfmLatentSearch, TracksCloserThanPlainTrackingAndIgnoresThreads) {
+  // The shipped tracker (bfm_track, session 9) on two sways of the standing pose.
+  auto agent_ptr = load_policy(std::string(T2M_SOURCE_DIR) + "/models/checkpoints/bfm_track.t2mckpt");
+  FbAgent& agent = *agent_ptr;
+  const RefMotions r = refs_of({{60, 0.05}, {90, 0.1}});
+  LatentSearchOptions o;
+  o.samples = 16;
+  o.horizon = 3;
+  const auto plain = track_bfm(agent, humanoid(), r);
+  const int threads = get_num_threads();
+  set_num_threads(1);
+  const auto one = track_bfm_search(agent, humanoid(), r, o);
+  set_num_threads(2);
+  const auto two = track_bfm_search(agent, humanoid(), r, o);
+  set_num_threads(threads);
+  ASSERT_EQ(one.size(), 2u);
+  for (int c = 0; c < 2; ++c) {
+    EXPECT_EQ(one[c].simulated.qpos, two[c].simulated.qpos) << c;
+    EXPECT_EQ(one[c].frames, r.frames(c));
+    EXPECT_LT(one[c].mpjpe_m, 0.8 * plain[c].mpjpe_m) << c << ": searched " << one[c].mpjpe_m << " plain " << plain[c].mpjpe_m;
+    EXPECT_GT(one[c].frames_ok, plain[c].frames_ok + 5) << c;  // plain: 41 of 60 and 16 of 90 frames here
+  }
+  EXPECT_TRUE(one[0].success);  // the searched policy holds the gentle sway to the end; plain tracking does not
+  EXPECT_FALSE(plain[0].success);
+  const RefMotions short_clip = refs_of({{20, 0.05}});
+  const auto seed1 = track_bfm_search(agent, humanoid(), short_clip, o);
+  o.seed = 2;  // another draw, another path
+  EXPECT_NE(track_bfm_search(agent, humanoid(), short_clip, o)[0].simulated.qpos, seed1[0].simulated.qpos);
+}
+
+TEST(BfmLatentSearch, RefusesBadOptionsAndReferences) {
+  FbAgent agent(tiny(), 1);
+  const RefMotions r = refs_of({{10, 0.1}});
+  for (auto f : {+[](LatentSearchOptions& o) { o.samples = 0; }, +[](LatentSearchOptions& o) { o.window = 0; },
+                 +[](LatentSearchOptions& o) { o.horizon = 0; }, +[](LatentSearchOptions& o) { o.sigma = -0.1; },
+                 +[](LatentSearchOptions& o) { o.sigma = NAN; }, +[](LatentSearchOptions& o) { o.carry = 1.5; },
+                 +[](LatentSearchOptions& o) { o.carry = -0.5; }}) {
+    LatentSearchOptions o;
+    f(o);
+    EXPECT_THROW(check_search_options(o), Error);
+    EXPECT_THROW(track_bfm_search(agent, humanoid(), r, o), Error);
+  }
+  EXPECT_THROW(track_bfm_search(agent, humanoid(), RefMotions{}), Error);  // no clips
+  EXPECT_THROW(track_bfm_search(agent, humanoid(), r, {}, {}, -1), Error);  // Eq 2 window
+  FbConfig other = tiny();
+  other.obs_dim += 1;
+  FbAgent wrong(other, 1);
+  EXPECT_THROW(track_bfm_search(wrong, humanoid(), r), Error);
+}
+
+TEST(BfmLatentSearch, EvalTrackRefusesBadSearchFlags) {
+  namespace fs = std::filesystem;
+  using t2m::test::read_text;
+  using t2m::test::run_t2m;
+  if (!fs::exists(t2m::test::t2m_binary())) GTEST_SKIP() << "t2m binary not built next to the test";
+  const fs::path w = fs::temp_directory_path() / ("t2m_latent_search_cli_" + std::to_string(::getpid()));
+  fs::remove_all(w);
+  fs::create_directories(w);
+  const std::string policy = std::string(T2M_SOURCE_DIR) + "/models/checkpoints/bfm_track.t2mckpt";
+  const fs::path out = w / "out.json";
+  for (const std::string& bad : {std::string("--search-samples 8"), std::string("--z-search --search-samples 0"),
+                                 std::string("--z-search --search-sigma -1"), std::string("--z-search --search-horizon 0")}) {
+    EXPECT_NE(run_t2m("eval track --policy '" + policy + "' " + bad + " --out '" + out.string() + "'", w / "bad.log"), 0)
+        << bad;
+    EXPECT_EQ(read_text(w / "bad.log").rfind("t2m: ", 0), 0u) << read_text(w / "bad.log");
+    EXPECT_FALSE(fs::exists(out)) << bad;
+  }
+  fs::remove_all(w);
+}
