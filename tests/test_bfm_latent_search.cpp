@@ -15,29 +15,15 @@
 #include "sim/retarget.h"
 #include "tensor/parallel.h"
 #include "test_cli_util.h"
+#include "test_bfm_sway.h"
 
 using namespace t2m;
 using namespace t2m::bfm;
 
+using t2m::test::humanoid;
+using t2m::test::swaying;
+
 namespace {
-std::shared_ptr<const sim::Humanoid> humanoid() {
-  static auto h = sim::Humanoid::create();
-  return h;
-}
-// A slow sway of six hinges around the standing pose (frames at 30 Hz).
-sim::QposTrajectory swaying(const sim::Humanoid& h, int frames, double amp) {
-  sim::QposTrajectory q;
-  q.frames = frames;
-  q.nq = h.model()->nq;
-  q.nv = h.model()->nv;
-  for (int t = 0; t < frames; ++t) {
-    std::vector<double> p(h.model()->qpos0, h.model()->qpos0 + q.nq);
-    for (int k = 0; k < 6; ++k) p[h.hinge_qpos(k)] += amp * std::sin(0.2 * t + k);
-    q.qpos.insert(q.qpos.end(), p.begin(), p.end());
-  }
-  sim::trajectory_velocities(h, q);
-  return q;
-}
 RefMotions refs_of(const std::vector<std::pair<int, double>>& clips) {
   RefMotions r;
   for (size_t i = 0; i < clips.size(); ++i)

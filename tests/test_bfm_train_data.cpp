@@ -14,10 +14,14 @@
 #include "models/bfm/replay_buffer.h"
 #include "nn/checkpoint.h"
 #include "tensor/parallel.h"
+#include "test_bfm_sway.h"
 
 using namespace t2m;
 using namespace t2m::bfm;
 namespace fs = std::filesystem;
+
+using t2m::test::humanoid;
+using t2m::test::swaying;
 
 namespace {
 std::string tmp_path(const std::string& name) {
@@ -34,26 +38,6 @@ void fill(ReplayBuffer& b, int n, int first = 0) {
     for (int k = 0; k < b.action_dim(); ++k) a[k] = (float)-i;
     b.add(o.data(), a.data(), no.data(), i % 5 == 0 ? 0.0f : 1.0f, i % 3, i);
   }
-}
-
-std::shared_ptr<const sim::Humanoid> humanoid() {
-  static auto h = sim::Humanoid::create();
-  return h;
-}
-
-// A standing reference of `frames` frames whose knees bend slowly (so PD targets change over time).
-sim::QposTrajectory swaying(const sim::Humanoid& h, int frames, double amp) {
-  sim::QposTrajectory q;
-  q.frames = frames;
-  q.nq = h.model()->nq;
-  q.nv = h.model()->nv;
-  for (int t = 0; t < frames; ++t) {
-    std::vector<double> p(h.model()->qpos0, h.model()->qpos0 + q.nq);
-    for (int k = 0; k < 6; ++k) p[h.hinge_qpos(k)] += amp * std::sin(0.2 * t + k);
-    q.qpos.insert(q.qpos.end(), p.begin(), p.end());
-  }
-  sim::trajectory_velocities(h, q);
-  return q;
 }
 
 RefMotions toy_refs() {

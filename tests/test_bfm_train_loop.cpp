@@ -14,10 +14,14 @@
 #include "models/bfm/trainer.h"
 #include "nn/checkpoint.h"
 #include "tensor/ops.h"
+#include "test_bfm_sway.h"
 
 using namespace t2m;
 using namespace t2m::bfm;
 namespace fs = std::filesystem;
+
+using t2m::test::humanoid;
+using t2m::test::swaying;
 
 namespace {
 std::string tmp_dir(const std::string& name) {
@@ -25,25 +29,6 @@ std::string tmp_dir(const std::string& name) {
   fs::remove_all(d);
   fs::create_directories(d);
   return d.string();
-}
-
-std::shared_ptr<const sim::Humanoid> humanoid() {
-  static auto h = sim::Humanoid::create();
-  return h;
-}
-
-sim::QposTrajectory swaying(const sim::Humanoid& h, int frames, double amp) {
-  sim::QposTrajectory q;
-  q.frames = frames;
-  q.nq = h.model()->nq;
-  q.nv = h.model()->nv;
-  for (int t = 0; t < frames; ++t) {
-    std::vector<double> p(h.model()->qpos0, h.model()->qpos0 + q.nq);
-    for (int k = 0; k < 6; ++k) p[h.hinge_qpos(k)] += amp * std::sin(0.2 * t + k);
-    q.qpos.insert(q.qpos.end(), p.begin(), p.end());
-  }
-  sim::trajectory_velocities(h, q);
-  return q;
 }
 
 const RefMotions& toy_refs() {
