@@ -50,6 +50,11 @@ void clamp_to_ctrlrange(const mjModel* m, double* ctrl);
 // Throws t2m::Error ("WHO: reference has ...") unless ref has >= 1 frame and qpos / qvel sizes of the model.
 void check_tracking_reference(const mjModel* m, const QposTrajectory& ref, const char* who);
 
+// The search planners' tracking cost of one frame (sim/samcon*.h, models/bfm/latent_search.h; defined in
+// samcon.cpp): mean_j |p_sim,j - p_ref,j|² over the tracked bodies against ref_pos [J, 3] (one reference frame);
+// the largest |p_sim,j - p_ref,j| in *worst.
+double tracking_frame_cost(const mjData* d, const std::vector<int>& bodies, const float* ref_pos, double* worst);
+
 // The metric code of track_pd for any controller (the BFM tracker and SAMCON use it too): after the env holds the
 // simulated state of frame t (t = 0, 1, ... in order; frame 0 = the start state), call add_frame(env), which also
 // records that state; result() gives the metric fields of a PdResult and the recorded trajectory (frames = frames

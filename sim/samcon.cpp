@@ -17,11 +17,8 @@
 #include "tensor/tensor.h"
 
 namespace t2m::sim {
-namespace {
 
-// mean_j |p_sim,j - p_ref,j|² over the tracked bodies against ref_pos [J, 3] (one reference frame); the largest
-// |p_sim,j - p_ref,j| in *worst.
-double frame_cost(const mjData* d, const std::vector<int>& bodies, const float* ref_pos, double* worst) {
+double tracking_frame_cost(const mjData* d, const std::vector<int>& bodies, const float* ref_pos, double* worst) {
   double sum = 0, mx = 0;
   for (size_t j = 0; j < bodies.size(); ++j) {
     double e2 = 0;
@@ -36,7 +33,6 @@ double frame_cost(const mjData* d, const std::vector<int>& bodies, const float* 
   return sum / (double)bodies.size();
 }
 
-}  // namespace
 
 namespace samcon_detail {
 
@@ -72,7 +68,7 @@ double simulate_candidate(Env& env, const SearchContext& c, const QposTrajectory
   for (int s = 1; s <= steps; ++s) {
     step_with_offset(env, ref, c.bref, c.bo, t + s, offset, ctrl.data());
     double w = 0;
-    cost += frame_cost(env.data(), c.bodies, c.ref_pos.data() + (size_t)(t + s) * J * 3, &w);
+    cost += tracking_frame_cost(env.data(), c.bodies, c.ref_pos.data() + (size_t)(t + s) * J * 3, &w);
     mx = std::max(mx, env.diverged() ? INFINITY : w);
   }
   *worst = mx;

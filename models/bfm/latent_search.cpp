@@ -39,17 +39,13 @@ void offset_latent(const float* z, const double* delta, int d, float* out) {
   for (int k = 0; k < d; ++k) out[k] *= s;
 }
 
-// mean_j |p_sim,j - p_ref,j|² of one frame; *worst = max(*worst, max_j |p_sim,j - p_ref,j|) (infinite on divergence).
-double frame_cost(const sim::Env& env, const std::vector<int>& bodies, const float* ref, double* worst) {
-  double sum = 0, mx = 0;
-  for (size_t j = 0; j < bodies.size(); ++j) {
-    const double* p = env.data()->xpos + 3 * bodies[j];
-    double e2 = 0;
-    for (int q = 0; q < 3; ++q) e2 += (p[q] - ref[3 * j + q]) * (p[q] - ref[3 * j + q]);
-    sum += e2, mx = std::max(mx, std::sqrt(e2));
-  }
-  *worst = std::max(*worst, env.diverged() || !std::isfinite(mx) ? INFINITY : mx);
-  return sum / (double)bodies.size();
+// sim::tracking_frame_cost of the env's frame; *worst = max(*worst, the frame's largest body error), infinite on
+// divergence.
+double candidate_frame_cost(const sim::Env& env, const std::vector<int>& bodies, const float* ref, double* worst) {
+  double w = 0;
+  const double cost = sim::tracking_frame_cost(env.data(), bodies, ref, &w);
+  *worst = std::max(*worst, env.diverged() || !std::isfinite(w) ? INFINITY : w);
+  return cost;
 }
 
 }  // namespace
@@ -68,7 +64,8 @@ std::vector<sim::PdResult> track_bfm_search(FbAgent& agent, std::shared_ptr<cons
   std::vector<std::unique_ptr<sim::Env>> envs;  // one per candidate
   for (int i = 0; i < S; ++i) envs.push_back(std::make_unique<sim::Env>(h));
   sim::Env body(h);  // the tracked body
-  Tensor obs = Tensor::empty({S, D}), zc = Tensor::empty({S, d}), obs1 = Tensor::empty({1, D}), z1 = Tensor::empty({1, d});
+  Tensor obs = Tensor::empty({S, D}), zc = Tensor::empty({S, d});  // the candidates' batch
+  Tensor obs1 = Tensor::empty({1, D}), z1 = Tensor::empty({1, d});  // the tracked body
   std::vector<double> delta((size_t)S * d), prev((size_t)d), zero((size_t)d, 0.0), cost((size_t)S), worst((size_t)S);
   sim::EnvState now;
   std::vector<sim::PdResult> out;
@@ -99,14 +96,15 @@ std::vector<sim::PdResult> track_bfm_search(FbAgent& agent, std::shared_ptr<cons
         }
         for (int s = 1; s <= steps; ++s) {  // frame t + s; its latent z_{t+s-1}
           for (int i = 0; i < S; ++i)
-            offset_latent(zt + (size_t)(t + s - 1) * d, delta.data() + (size_t)i * d, d, zc.data<float>() + (size_t)i * d);
+            offset_latent(zt + (size_t)(t + s - 1) * d, delta.data() + (size_t)i * d, d,
+                          zc.data<float>() + (size_t)i * d);
           const Tensor a = agent.actor_mean(obs, zc).contiguous();  // [S, A]
           const float* ref = refs.body_pos.data() + (size_t)refs.global_frame(c, t + s) * J * 3;
 #pragma omp parallel for schedule(dynamic)
           for (int i = 0; i < S; ++i) {
             if (!(worst[i] < pd.fail_distance)) continue;  // a dropped candidate stops simulating
             envs[i]->step(a.data<float>() + (size_t)i * A, obs.data<float>() + (size_t)i * D);
-            cost[i] += frame_cost(*envs[i], bodies, ref, &worst[i]);
+            cost[i] += candidate_frame_cost(*envs[i], bodies, ref, &worst[i]);
           }
         }
         int best = 0;  // survivors first, then the cost, then the index
