@@ -7,6 +7,7 @@
 #include <cstring>
 #include <random>
 #include <string>
+#include <tuple>
 
 #include "autograd/no_grad.h"
 #include "models/bfm/track_eval.h"
@@ -15,11 +16,14 @@
 namespace t2m::bfm {
 void check_search_options(const LatentSearchOptions& o) {
   if (o.samples < 1 || o.window < 1 || o.horizon < 1 || !(o.sigma >= 0) || !std::isfinite(o.sigma) ||
-      !(o.carry >= 0 && o.carry <= 1))
+      !(o.carry >= 0 && o.carry <= 1) || o.elites < 1 || o.elites > o.samples || !(o.action_noise >= 0) ||
+      !std::isfinite(o.action_noise))
     throw Error("track_bfm_search: bad options (samples " + std::to_string(o.samples) + ", window " +
                 std::to_string(o.window) + ", horizon " + std::to_string(o.horizon) + ", sigma " +
-                std::to_string(o.sigma) + ", carry " + std::to_string(o.carry) +
-                "): need samples, window, horizon >= 1, finite sigma >= 0, carry in [0, 1]");
+                std::to_string(o.sigma) + ", carry " + std::to_string(o.carry) + ", elites " +
+                std::to_string(o.elites) + ", action noise " + std::to_string(o.action_noise) +
+                "): need samples, window, horizon >= 1, finite sigma >= 0, carry in [0, 1], elites in [1, samples],"
+                " finite action noise >= 0");
 }
 
 namespace {
@@ -48,11 +52,31 @@ double candidate_frame_cost(const sim::Env& env, const std::vector<int>& bodies,
   return cost;
 }
 
+// The applied offset: the best candidate's (survivors first, then the cost, then the index), or with elites K > 1
+// the mean of the K best in that order (a NaN cost ranks last). order [S] is scratch.
+void choose_offset(const std::vector<double>& delta, const std::vector<double>& cost, const std::vector<double>& worst,
+                   double fail_distance, int elites, int d, std::vector<int>& order, std::vector<double>& out) {
+  const auto survives = [&](int i) { return worst[i] < fail_distance; };
+  if (elites == 1) {
+    int best = 0;
+    for (int i = 1; i < (int)cost.size(); ++i)
+      if (survives(i) != survives(best) ? survives(i) : cost[i] < cost[best]) best = i;
+    std::copy_n(delta.begin() + (size_t)best * d, d, out.begin());
+    return;
+  }
+  const auto key = [&](int i) { return std::make_tuple(!survives(i), std::isnan(cost[i]) ? INFINITY : cost[i], i); };
+  for (size_t i = 0; i < order.size(); ++i) order[i] = (int)i;
+  std::partial_sort(order.begin(), order.begin() + elites, order.end(), [&](int x, int y) { return key(x) < key(y); });
+  std::fill(out.begin(), out.end(), 0.0);
+  for (int k = 0; k < elites; ++k)
+    for (int q = 0; q < d; ++q) out[q] += delta[(size_t)order[k] * d + q] / elites;
+}
+
 }  // namespace
 
 std::vector<sim::PdResult> track_bfm_search(FbAgent& agent, std::shared_ptr<const sim::Humanoid> h,
                                             const RefMotions& refs, const LatentSearchOptions& opt,
-                                            const sim::PdOptions& pd, int window) {
+                                            const sim::PdOptions& pd, int window, SearchRows* rows) {
   check_search_options(opt);
   check_tracking_refs(&agent, *h, refs);
   if (window < 0) throw Error("track_bfm_search: window must be >= 0 (0 = the agent's track_window)");
@@ -67,6 +91,8 @@ std::vector<sim::PdResult> track_bfm_search(FbAgent& agent, std::shared_ptr<cons
   Tensor obs = Tensor::empty({S, D}), zc = Tensor::empty({S, d});  // the candidates' batch
   Tensor obs1 = Tensor::empty({1, D}), z1 = Tensor::empty({1, d});  // the tracked body
   std::vector<double> delta((size_t)S * d), prev((size_t)d), zero((size_t)d, 0.0), cost((size_t)S), worst((size_t)S);
+  std::vector<int> order((size_t)S);
+  std::vector<float> act((size_t)A);
   sim::EnvState now;
   std::vector<sim::PdResult> out;
   for (int c = 0; c < refs.clips(); ++c) {
@@ -78,6 +104,7 @@ std::vector<sim::PdResult> track_bfm_search(FbAgent& agent, std::shared_ptr<cons
     sim::TrackingScorer score(*h, traj, pd);
     score.add_frame(body);
     std::mt19937_64 rng(opt.seed + (uint64_t)c);
+    std::mt19937_64 noise_rng(opt.seed + (uint64_t)c + 0x9E3779B97F4A7C15ull);  // action noise only
     std::normal_distribution<double> normal(0.0, 1.0);
     std::fill(prev.begin(), prev.end(), 0.0);
     bool planning = true;
@@ -107,21 +134,27 @@ std::vector<sim::PdResult> track_bfm_search(FbAgent& agent, std::shared_ptr<cons
             cost[i] += candidate_frame_cost(*envs[i], bodies, ref, &worst[i]);
           }
         }
-        int best = 0;  // survivors first, then the cost, then the index
-        const auto better = [&](int x, int y) {
-          const bool sx = worst[x] < pd.fail_distance, sy = worst[y] < pd.fail_distance;
-          return sx != sy ? sx : cost[x] < cost[y];
-        };
-        for (int i = 1; i < S; ++i)
-          if (better(i, best)) best = i;
-        std::copy_n(delta.begin() + (size_t)best * d, d, prev.begin());
+        choose_offset(delta, cost, worst, pd.fail_distance, opt.elites, d, order, prev);
       }
       bool failed = false;
       for (int s = 1; s <= w; ++s) {
         body.observe(obs1.data<float>());
         offset_latent(zt + (size_t)(t + s - 1) * d, planning ? prev.data() : zero.data(), d, z1.data<float>());
         const Tensor a = agent.actor_mean(obs1, z1).contiguous();
-        body.step(a.data<float>(), nullptr);
+        if (rows != nullptr && planning) {
+          rows->obs.insert(rows->obs.end(), obs1.data<float>(), obs1.data<float>() + D);
+          rows->z.insert(rows->z.end(), zt + (size_t)(t + s - 1) * d, zt + (size_t)(t + s) * d);
+          rows->action.insert(rows->action.end(), a.data<float>(), a.data<float>() + A);
+          rows->clip.push_back(c);
+          rows->frame.push_back(t + s - 1);
+        }
+        if (opt.action_noise > 0) {
+          std::copy_n(a.data<float>(), A, act.begin());
+          for (float& v : act) v = std::clamp((float)(v + opt.action_noise * normal(noise_rng)), -1.0f, 1.0f);
+          body.step(act.data(), nullptr);
+        } else {
+          body.step(a.data<float>(), nullptr);
+        }
         score.add_frame(body);
         failed = failed || score.last_frame_error() >= pd.fail_distance;
       }

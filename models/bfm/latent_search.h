@@ -18,8 +18,14 @@
 // policy's own tracking. Cost: samples × window × horizon control steps per window (64 × 15 per 0.1 s: ~10 s per
 // 3 s clip on 2 threads). Deterministic for a seed (offsets drawn on the calling thread, clip c from seed + c;
 // candidates simulated in parallel), independent of the thread count.
-// Errors (t2m::Error): samples, window or horizon < 1; sigma < 0 or not finite; carry outside [0, 1]; references
-// of another model or obs dim.
+// Elites (session 27): with elites = K > 1 the applied offset is the mean of the K best candidates' offsets
+// (survivors first, then cost) instead of the single best one: a smoother choice, i.e. labels a student can fit
+// (models/bfm/search_distill.h). Data collection: action_noise adds N(0, action_noise²) to every action the tracked
+// body executes (clamped to [-1, 1]; DART-style, drawn from a stream of its own so 0 changes nothing), and
+// `rows` receives (s_t, z_t, mu(s_t, z'_t), clip, t) for every control step the search is in charge of (the clean
+// action, before noise).
+// Errors (t2m::Error): samples, window or horizon < 1; sigma < 0 or not finite; carry outside [0, 1]; elites
+// outside [1, samples]; action_noise < 0 or not finite; references of another model or obs dim.
 #pragma once
 #include <cstdint>
 #include <memory>
@@ -38,6 +44,18 @@ struct LatentSearchOptions {
   double sigma = 0.3;  // std of the offset's random step per latent coordinate (|z| = sqrt(d): ~1 per coordinate)
   double carry = 1.0;  // share of the previous window's offset new candidates start from
   uint64_t seed = 1;   // clip c draws from seed + c
+  int elites = 1;      // offsets averaged into the applied one (1 = the best candidate's)
+  double action_noise = 0.0;  // std of the noise on the tracked body's actions (data collection; 0 = evaluation)
+};
+
+// The control steps the search drove (row r belongs to clip[r], frame t = frame[r], 0-based transition index).
+struct SearchRows {
+  std::vector<float> obs;     // [R, D]  s_t
+  std::vector<float> z;       // [R, d]  z_t of Eq 2 (what the policy sees without the search)
+  std::vector<float> action;  // [R, A]  mu(s_t, z'_t), the action the search chose (before action_noise)
+  std::vector<int> clip;      // [R]     index into the references
+  std::vector<int> frame;     // [R]
+  int64_t rows() const { return (int64_t)clip.size(); }
 };
 
 // Throws t2m::Error on the option errors listed above (track_bfm_search checks them too).
@@ -46,6 +64,7 @@ void check_search_options(const LatentSearchOptions& opt);
 // window: L of Eq 2 (0 = the agent's track_window).
 std::vector<sim::PdResult> track_bfm_search(FbAgent& agent, std::shared_ptr<const sim::Humanoid> h,
                                             const RefMotions& refs, const LatentSearchOptions& opt = {},
-                                            const sim::PdOptions& pd = {}, int window = 0);
+                                            const sim::PdOptions& pd = {}, int window = 0,
+                                            SearchRows* rows = nullptr);
 
 }  // namespace t2m::bfm
