@@ -21,28 +21,13 @@ using namespace t2m;
 using namespace t2m::bfm;
 
 using t2m::test::humanoid;
-using t2m::test::swaying;
+using t2m::test::sway_refs;
+using t2m::test::tiny_fb_config;
 
-namespace {
-RefMotions refs_of(const std::vector<std::pair<int, double>>& clips) {
-  RefMotions r;
-  for (size_t i = 0; i < clips.size(); ++i)
-    r.add(*humanoid(), "clip" + std::to_string(i), swaying(*humanoid(), clips[i].first, clips[i].second));
-  return r;
-}
-FbConfig tiny() {
-  FbConfig c;
-  c.hidden = 16;
-  c.b_hidden = 16;
-  c.z_dim = 6;
-  c.track_window = 3;
-  return c;
-}
-}  // namespace
 
 TEST(BfmLatentSearch, OneCandidateIsPlainTrackingBitForBit) {
-  FbAgent agent(tiny(), 1);
-  const RefMotions r = refs_of({{25, 0.1}});
+  FbAgent agent(tiny_fb_config(), 1);
+  const RefMotions r = sway_refs({{25, 0.1}});
   LatentSearchOptions o;
   o.samples = 1;  // only δ = 0: the latents of Eq 2 unchanged
   const auto searched = track_bfm_search(agent, humanoid(), r, o);
@@ -57,7 +42,7 @@ TEST(BfmLatentSearch, TracksCloserThanPlainTrackingAndIgnoresThreads) {
   // The shipped tracker (bfm_track, session 9) on two sways of the standing pose.
   auto agent_ptr = load_policy(std::string(T2M_SOURCE_DIR) + "/models/checkpoints/bfm_track.t2mckpt");
   FbAgent& agent = *agent_ptr;
-  const RefMotions r = refs_of({{60, 0.05}, {90, 0.1}});
+  const RefMotions r = sway_refs({{60, 0.05}, {90, 0.1}});
   LatentSearchOptions o;
   o.samples = 16;
   o.horizon = 3;
@@ -77,15 +62,15 @@ TEST(BfmLatentSearch, TracksCloserThanPlainTrackingAndIgnoresThreads) {
   }
   EXPECT_TRUE(one[0].success);  // the searched policy holds the gentle sway to the end; plain tracking does not
   EXPECT_FALSE(plain[0].success);
-  const RefMotions short_clip = refs_of({{20, 0.05}});
+  const RefMotions short_clip = sway_refs({{20, 0.05}});
   const auto seed1 = track_bfm_search(agent, humanoid(), short_clip, o);
   o.seed = 2;  // another draw, another path
   EXPECT_NE(track_bfm_search(agent, humanoid(), short_clip, o)[0].simulated.qpos, seed1[0].simulated.qpos);
 }
 
 TEST(BfmLatentSearch, RefusesBadOptionsAndReferences) {
-  FbAgent agent(tiny(), 1);
-  const RefMotions r = refs_of({{10, 0.1}});
+  FbAgent agent(tiny_fb_config(), 1);
+  const RefMotions r = sway_refs({{10, 0.1}});
   for (auto f : {+[](LatentSearchOptions& o) { o.samples = 0; }, +[](LatentSearchOptions& o) { o.window = 0; },
                  +[](LatentSearchOptions& o) { o.horizon = 0; }, +[](LatentSearchOptions& o) { o.sigma = -0.1; },
                  +[](LatentSearchOptions& o) { o.sigma = NAN; }, +[](LatentSearchOptions& o) { o.carry = 1.5; },
@@ -97,7 +82,7 @@ TEST(BfmLatentSearch, RefusesBadOptionsAndReferences) {
   }
   EXPECT_THROW(track_bfm_search(agent, humanoid(), RefMotions{}), Error);  // no clips
   EXPECT_THROW(track_bfm_search(agent, humanoid(), r, {}, {}, -1), Error);  // Eq 2 window
-  FbConfig other = tiny();
+  FbConfig other = tiny_fb_config();
   other.obs_dim += 1;
   FbAgent wrong(other, 1);
   EXPECT_THROW(track_bfm_search(wrong, humanoid(), r), Error);

@@ -24,23 +24,10 @@ using namespace t2m::bfm;
 namespace fs = std::filesystem;
 
 using t2m::test::humanoid;
-using t2m::test::swaying;
+using t2m::test::sway_refs;
+using t2m::test::tiny_fb_config;
 
 namespace {
-RefMotions sway_refs(const std::vector<std::pair<int, double>>& clips) {
-  RefMotions r;
-  for (size_t i = 0; i < clips.size(); ++i)
-    r.add(*humanoid(), "clip" + std::to_string(i), swaying(*humanoid(), clips[i].first, clips[i].second));
-  return r;
-}
-FbConfig tiny() {
-  FbConfig c;
-  c.hidden = 16;
-  c.b_hidden = 16;
-  c.z_dim = 6;
-  c.track_window = 3;
-  return c;
-}
 // mu(s_r, z_r) of row r, recomputed.
 std::vector<float> mean_of_row(FbAgent& agent, const SearchRows& rows, int64_t r) {
   const int D = agent.config().obs_dim, d = agent.config().z_dim;
@@ -59,7 +46,7 @@ fs::path scratch(const std::string& tag) {
 }  // namespace
 
 TEST(BfmSearchDistill, RecordedRowsAreTheCleanMeansOnThePlainLatentWithOneCandidate) {
-  FbAgent agent(tiny(), 3);
+  FbAgent agent(tiny_fb_config(), 3);
   const RefMotions r = sway_refs({{20, 0.05}, {15, 0.1}});
   LatentSearchOptions o;
   o.samples = 1;  // δ = 0 only: the recorded action is mu(s, z_t) of the plain latent
@@ -104,7 +91,7 @@ TEST(BfmSearchDistill, ElitesAverageOffsetsAndStillTrackCloserThanPlain) {
 }
 
 TEST(BfmSearchDistill, RowsFileRoundTripsAndRefusesBadFiles) {
-  FbAgent agent(tiny(), 4);
+  FbAgent agent(tiny_fb_config(), 4);
   const RefMotions r = sway_refs({{12, 0.05}, {10, 0.1}});
   SearchRows rows = plain_tracking_rows(agent, humanoid(), r, 0.02, 5);
   ASSERT_GT(rows.rows(), 0);
@@ -136,7 +123,7 @@ TEST(BfmSearchDistill, RowsFileRoundTripsAndRefusesBadFiles) {
 }
 
 TEST(BfmSearchDistill, AnchorRowsAreThePlainRolloutLabelledWithItsOwnMean) {
-  FbAgent agent(tiny(), 5);
+  FbAgent agent(tiny_fb_config(), 5);
   const RefMotions r = sway_refs({{15, 0.05}});
   const SearchRows a = plain_tracking_rows(agent, humanoid(), r, 0.0, 1);
   const auto plain = track_bfm(agent, humanoid(), r);
@@ -156,11 +143,11 @@ TEST(BfmSearchDistill, AnchorRowsAreThePlainRolloutLabelledWithItsOwnMean) {
 }
 
 TEST(BfmSearchDistill, FitOverfitsAFewRowsAndKeepsTheAnchor) {
-  FbAgent agent(tiny(), 6);
+  FbAgent agent(tiny_fb_config(), 6);
   const RefMotions r = sway_refs({{12, 0.05}});
   SearchRows labels = plain_tracking_rows(agent, humanoid(), r, 0.05, 1);
   const SearchRows anchor = labels;  // the same states, labelled with the current mean
-  FbAgent teacher(tiny(), 7);        // labels another actor of the same shape produces: reachable
+  FbAgent teacher(tiny_fb_config(), 7);        // labels another actor of the same shape produces: reachable
   for (int64_t i = 0; i < labels.rows(); ++i) {
     const std::vector<float> a = mean_of_row(teacher, labels, i);
     std::copy(a.begin(), a.end(), labels.action.begin() + i * (int64_t)a.size());
@@ -170,7 +157,7 @@ TEST(BfmSearchDistill, FitOverfitsAFewRowsAndKeepsTheAnchor) {
   o.batch = 8;
   o.lr = 3e-3;
   o.anchor_weight = 0;
-  FbAgent copy(tiny(), 6);
+  FbAgent copy(tiny_fb_config(), 6);
   const DistillStats st = fit_actor_to_search(agent, labels, anchor, o);
   EXPECT_LT(st.label_rms_after, 0.5 * st.label_rms_before) << st.label_rms_before << " -> " << st.label_rms_after;
   EXPECT_LT(st.anchor_rms_before, 1e-6);  // its own mean (batched: rounding only)
@@ -187,7 +174,7 @@ TEST(BfmSearchDistill, FitOverfitsAFewRowsAndKeepsTheAnchor) {
   EXPECT_THROW(fit_actor_to_search(copy, labels, SearchRows{}, o), Error);       // anchor weight without rows
   o.lr = 0;
   EXPECT_THROW(fit_actor_to_search(copy, labels, anchor, o), Error);
-  FbConfig other = tiny();
+  FbConfig other = tiny_fb_config();
   other.z_dim = 8;
   FbAgent wrong(other, 1);
   o.lr = 1e-3;

@@ -21,7 +21,7 @@
 // Elites (session 27): with elites = K > 1 the applied offset is the mean of the K best candidates' offsets
 // (survivors first, then cost) instead of the single best one: a smoother choice, i.e. labels a student can fit
 // (models/bfm/search_distill.h). Data collection: action_noise adds N(0, action_noise²) to every action the tracked
-// body executes (clamped to [-1, 1]; DART-style, drawn from a stream of its own so 0 changes nothing), and
+// body executes (clamped to [-1, 1]; DART-style, from an engine of its own: 0 draws nothing, the search unchanged), and
 // `rows` receives (s_t, z_t, mu(s_t, z'_t), clip, t) for every control step the search is in charge of (the clean
 // action, before noise).
 // Errors (t2m::Error): samples, window or horizon < 1; sigma < 0 or not finite; carry outside [0, 1]; elites
