@@ -3,13 +3,14 @@
 //   t2m train bfm-distill --policy P --out DIR [--contents raise-up,wave] [--every K] [--chunk-clips 40]
 //       [--minutes M] [--search-samples 64 --search-horizon 5 --search-sigma 0.3 --elites 8 --action-noise 0.03
 //       --search-seed 1] [--anchor-clips 400 --anchor-noise 0.05 --anchor-weight 1 --updates 6000 --lr 1e-4
-//       --batch 256] [--threads T] [--export OUT.t2mckpt]
+//       --batch 256] [--threads T] [--export OUT.t2mckpt [--fit-partial]]
 // Stage 1 (collection): the train clips whose content label starts with one of --contents (every K-th, name
 // order) are tracked by the z search of P with action noise, in chunks of --chunk-clips clips; chunk k is written to
 // DIR/rows_NNNNN.t2mckpt (NNNNN = its first clip) atomically and skipped when present, so an interrupted or
 // --minutes-limited run resumes at the first missing chunk. Clip i of the selection uses search seed + i.
-// Stage 2 (once every chunk exists and --export is given): anchor rows from plain Eq 2 rollouts of P on the train
-// clips of the other contents (--anchor-clips spread over the split), the actor fit, the policy written to OUT.
+// Stage 2 (once every chunk exists, or with --fit-partial on the chunks present, and --export is given): anchor
+// rows from plain Eq 2 rollouts of P on the train clips of the other contents (--anchor-clips spread over the
+// split), the actor fit, the policy written to OUT.
 // DIR/config.json holds the selection and search options of the first invocation; later ones must agree.
 #include <chrono>
 #include <cstdio>
@@ -41,6 +42,7 @@ struct DistillArgs {
   std::string policy = "models/checkpoints/bfm_track.t2mckpt", out, manifest, export_path, contents = "raise-up,wave";
   int every = 1, chunk_clips = 40, anchor_clips = 400, threads = 0;
   double minutes = 0, anchor_noise = 0.05;
+  bool fit_partial = false;
   bfm::LatentSearchOptions search;
   bfm::DistillOptions fit;
   DistillArgs() {
@@ -141,16 +143,18 @@ void run_distill(const DistillArgs& a) {
     bar.update(++done, {{"tracked", (double)tracked / (last - first)}});
   }
   bar.finish();
-  if (done < chunks) {
+  if (done < chunks)
     std::printf("train bfm-distill: %d of %d chunks in %s; run again to continue\n", done, chunks, dir.c_str());
-    return;
-  }
-  std::printf("train bfm-distill: all %d chunks in %s\n", chunks, dir.c_str());
-  if (a.export_path.empty()) return;
+  else
+    std::printf("train bfm-distill: all %d chunks in %s\n", chunks, dir.c_str());
+  if (a.export_path.empty() || (done < chunks && !a.fit_partial) || done == 0) return;
 
   const int D = agent->config().obs_dim, d = agent->config().z_dim, A = agent->config().action_dim;
   bfm::SearchRows labels;
+  int used = 0;
   for (int k = 0; k < chunks; ++k) {
+    if (!fs::exists(chunk_path(dir, k * a.chunk_clips))) continue;  // only with --fit-partial
+    ++used;
     std::vector<std::string> names;
     const bfm::SearchRows r = bfm::load_search_rows(chunk_path(dir, k * a.chunk_clips), D, d, A, &names);
     bfm::append_search_rows(labels, r, k * a.chunk_clips);
@@ -168,7 +172,8 @@ void run_distill(const DistillArgs& a) {
               st.label_rms_before, st.label_rms_after, st.anchor_rms_before, st.anchor_rms_after);
   if (const fs::path p(a.export_path); p.has_parent_path()) fs::create_directories(p.parent_path());
   json info = cfg;
-  info["fit"] = {{"updates", a.fit.updates}, {"lr", a.fit.lr}, {"batch", a.fit.batch},
+  info["fit"] = {{"chunks", used},         {"of_chunks", chunks}, {"updates", a.fit.updates},
+                 {"lr", a.fit.lr},         {"batch", a.fit.batch},
                  {"anchor_weight", a.fit.anchor_weight}, {"anchor_clips", a.anchor_clips},
                  {"anchor_noise", a.anchor_noise}, {"label_rows", labels.rows()}, {"anchor_rows", anchor.rows()}};
   info["data"] = "Bandai-Namco-Research-Motiondataset (CC BY-NC 4.0), train split";
@@ -204,6 +209,7 @@ void add_train_bfm_distill(CLI::App& app) {
   c->add_option("--batch", a.fit.batch, "fit: rows of each kind per update")->capture_default_str()->check(CLI::PositiveNumber);
   c->add_option("--threads", a.threads, "threads (0 = default); results are deterministic per thread count");
   c->add_option("--export", a.export_path, "when every chunk exists: fit and write the fine-tuned policy here");
+  c->add_flag("--fit-partial", a.fit_partial, "with --export: fit on the chunks present even if some are missing");
   c->callback([] { run_distill(a); });
 }
 
