@@ -12,6 +12,7 @@
 // rows from plain Eq 2 rollouts of P on the train clips of the other contents (--anchor-clips spread over the
 // split), the actor fit, the policy written to OUT.
 // DIR/config.json holds the selection and search options of the first invocation; later ones must agree.
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -40,7 +41,8 @@ namespace data = t2m::data;
 
 struct DistillArgs {
   std::string policy = "models/checkpoints/bfm_track.t2mckpt", out, manifest, export_path, contents = "raise-up,wave";
-  int every = 1, chunk_clips = 40, anchor_clips = 400, threads = 0;
+  std::vector<std::string> with_rows;  // earlier rounds' row directories, fitted too (DAgger aggregation)
+  int every = 1, offset = 0, chunk_clips = 40, anchor_clips = 400, threads = 0;
   double minutes = 0, anchor_noise = 0.05;
   bool fit_partial = false;
   bfm::LatentSearchOptions search;
@@ -90,11 +92,13 @@ void run_distill(const DistillArgs& a) {
   const std::vector<std::string> contents = split_list(a.contents);
   if (contents.empty()) throw Error("train bfm-distill: --contents names no content label");
   const std::string dir = a.out.empty() ? data::default_cache_dir() + "/bfm/distill" : a.out;
-  const json cfg = {{"policy", a.policy},          {"contents", a.contents},          {"every", a.every},
+  json cfg = {{"policy", a.policy},          {"contents", a.contents},          {"every", a.every},
                     {"chunk_clips", a.chunk_clips}, {"samples", a.search.samples},     {"window", a.search.window},
                     {"horizon", a.search.horizon},  {"sigma", a.search.sigma},         {"carry", a.search.carry},
                     {"elites", a.search.elites},    {"action_noise", a.search.action_noise},
                     {"seed", a.search.seed}};
+  if (a.offset >= a.every) throw Error("train bfm-distill: --offset must be below --every");
+  if (a.offset > 0) cfg["offset"] = a.offset;  // absent when 0: directories of earlier builds stay valid
   auto agent = bfm::load_policy(a.policy);  // before touching DIR: a bad policy leaves nothing behind
   const std::string manifest_path =
       a.manifest.empty() ? data::default_cache_dir() + "/bandai/manifest.json" : a.manifest;
@@ -115,10 +119,10 @@ void run_distill(const DistillArgs& a) {
   auto h = t2m::sim::Humanoid::create();
   const bfm::RefMotions all = bfm::load_ref_motions(*h, by_content(manifest, contents, true), data::Split::train, 0);
   bfm::RefMotions sel;
-  for (int c = 0; c < all.clips(); c += a.every) sel.add(*h, all.names[c], all.trajectory(c));
+  for (int c = a.offset; c < all.clips(); c += a.every) sel.add(*h, all.names[c], all.trajectory(c));
   const int n = sel.clips(), chunks = (n + a.chunk_clips - 1) / a.chunk_clips;
-  std::fprintf(stderr, "train bfm-distill: %d train clips of %s (every %d), %d chunks of %d in %s\n", n,
-               a.contents.c_str(), a.every, chunks, a.chunk_clips, dir.c_str());
+  std::fprintf(stderr, "train bfm-distill: %d train clips of %s (every %d from %d), %d chunks of %d in %s\n", n,
+               a.contents.c_str(), a.every, a.offset, chunks, a.chunk_clips, dir.c_str());
   int done = 0;
   for (int k = 0; k < chunks; ++k) done += fs::exists(chunk_path(dir, k * a.chunk_clips));
   t2m::nn::ProgressOptions po;
@@ -159,6 +163,21 @@ void run_distill(const DistillArgs& a) {
     const bfm::SearchRows r = bfm::load_search_rows(chunk_path(dir, k * a.chunk_clips), D, d, A, &names);
     bfm::append_search_rows(labels, r, k * a.chunk_clips);
   }
+  int extra = 0;  // rows of earlier rounds: clip ids moved past this round's
+  for (const std::string& d2 : a.with_rows) {
+    std::vector<fs::path> files;
+    for (const auto& e : fs::directory_iterator(d2))
+      if (e.path().extension() == ".t2mckpt" && e.path().filename().string().rfind("rows_", 0) == 0)
+        files.push_back(e.path());
+    if (files.empty()) throw Error("train bfm-distill: --with-rows " + d2 + " holds no rows_*.t2mckpt");
+    std::sort(files.begin(), files.end());
+    for (const auto& f : files) {
+      std::vector<std::string> names;
+      const bfm::SearchRows r = bfm::load_search_rows(f.string(), D, d, A, &names);
+      bfm::append_search_rows(labels, r, n + extra);
+      extra += (int)names.size();
+    }
+  }
   const bfm::RefMotions others = bfm::load_ref_motions(*h, by_content(manifest, contents, false), data::Split::train,
                                                        a.anchor_clips);
   const bfm::SearchRows anchor = bfm::plain_tracking_rows(*agent, h, others, a.anchor_noise, a.search.seed);
@@ -172,6 +191,7 @@ void run_distill(const DistillArgs& a) {
               st.label_rms_before, st.label_rms_after, st.anchor_rms_before, st.anchor_rms_after);
   if (const fs::path p(a.export_path); p.has_parent_path()) fs::create_directories(p.parent_path());
   json info = cfg;
+  info["with_rows"] = a.with_rows;
   info["fit"] = {{"chunks", used},         {"of_chunks", chunks}, {"updates", a.fit.updates},
                  {"lr", a.fit.lr},         {"batch", a.fit.batch},
                  {"anchor_weight", a.fit.anchor_weight}, {"anchor_clips", a.anchor_clips},
@@ -191,6 +211,10 @@ void add_train_bfm_distill(CLI::App& app) {
   c->add_option("--contents", a.contents, "content-label prefixes of the searched train clips, comma-separated")
       ->capture_default_str();
   c->add_option("--every", a.every, "every K-th of those clips (name order)")->capture_default_str()->check(CLI::PositiveNumber);
+  c->add_option("--offset", a.offset, "start at the offset-th clip (0 <= offset < every: a disjoint selection)")
+      ->capture_default_str()->check(CLI::NonNegativeNumber);
+  c->add_option("--with-rows", a.with_rows, "earlier rounds' row directories, fitted with this one's (repeatable)")
+      ->check(CLI::ExistingDirectory);
   c->add_option("--chunk-clips", a.chunk_clips, "clips per rows file")->capture_default_str()->check(CLI::PositiveNumber);
   c->add_option("--minutes", a.minutes, "start no new chunk after M minutes (0 = no limit)");
   c->add_option("--search-samples", a.search.samples, "z search: candidates per window")->capture_default_str();

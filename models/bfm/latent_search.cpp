@@ -142,11 +142,7 @@ std::vector<sim::PdResult> track_bfm_search(FbAgent& agent, std::shared_ptr<cons
         offset_latent(zt + (size_t)(t + s - 1) * d, planning ? prev.data() : zero.data(), d, z1.data<float>());
         const Tensor a = agent.actor_mean(obs1, z1).contiguous();
         if (rows != nullptr && planning) {
-          rows->obs.insert(rows->obs.end(), obs1.data<float>(), obs1.data<float>() + D);
-          rows->z.insert(rows->z.end(), zt + (size_t)(t + s - 1) * d, zt + (size_t)(t + s) * d);
-          rows->action.insert(rows->action.end(), a.data<float>(), a.data<float>() + A);
-          rows->clip.push_back(c);
-          rows->frame.push_back(t + s - 1);
+          rows->add(obs1.data<float>(), D, zt + (size_t)(t + s - 1) * d, d, a.data<float>(), A, c, t + s - 1);
         }
         if (opt.action_noise > 0) {
           std::copy_n(a.data<float>(), A, act.begin());

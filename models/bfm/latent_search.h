@@ -56,6 +56,14 @@ struct SearchRows {
   std::vector<int> clip;      // [R]     index into the references
   std::vector<int> frame;     // [R]
   int64_t rows() const { return (int64_t)clip.size(); }
+  // Appends one row: obs [D], z [d], action [A].
+  void add(const float* o, int D, const float* zz, int d, const float* a, int A, int c, int t) {
+    obs.insert(obs.end(), o, o + D);
+    z.insert(z.end(), zz, zz + d);
+    action.insert(action.end(), a, a + A);
+    clip.push_back(c);
+    frame.push_back(t);
+  }
 };
 
 // Throws t2m::Error on the option errors listed above (track_bfm_search checks them too).

@@ -145,11 +145,7 @@ SearchRows plain_tracking_rows(FbAgent& agent, std::shared_ptr<const sim::Humano
       body.observe(o1.data<float>());
       std::copy_n(z.data<float>() + (size_t)t * d, d, z1.data<float>());
       const Tensor a = agent.actor_mean(o1, z1).contiguous();
-      out.obs.insert(out.obs.end(), o1.data<float>(), o1.data<float>() + D);
-      out.z.insert(out.z.end(), z1.data<float>(), z1.data<float>() + d);
-      out.action.insert(out.action.end(), a.data<float>(), a.data<float>() + A);
-      out.clip.push_back(c);
-      out.frame.push_back(t);
+      out.add(o1.data<float>(), D, z1.data<float>(), d, a.data<float>(), A, c, t);
       for (int k = 0; k < A; ++k)
         act[k] = std::clamp((float)(a.data<float>()[k] + noise * normal(rng)), -1.0f, 1.0f);
       body.step(act.data(), nullptr);
