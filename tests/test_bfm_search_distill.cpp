@@ -206,7 +206,7 @@ TEST(BfmSearchDistill, TrainBfmDistillRefusesBadFlags) {
   const std::string good = "--policy '" + policy + "' --out '" + out.string() + "' ";
   for (const std::string& args :
        {good + "--every 0", good + "--search-samples 8 --elites 9", good + "--action-noise -1", good + "--contents ,",
-        good + "--chunk-clips 0", good + "--no-such-flag", good + "--every 3 --offset 3", good + "--offset -1",
+        good + "--chunk-clips 0", good + "--no-such-flag", good + "--every 3 --offset 3", good + "--offset -1", good + "--max-chunks -2",
         good + "--with-rows '" + (w / "none").string() + "'",
         "--policy '" + (w / "none").string() + "' --out '" + out.string() + "'"}) {
     EXPECT_NE(run_t2m("train bfm-distill " + args, w / "bad.log"), 0) << args;

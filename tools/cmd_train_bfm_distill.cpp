@@ -1,16 +1,19 @@
 // cmd_train_bfm_distill.cpp — `t2m train bfm-distill`: the z search distilled into the actor (models/bfm/
 // search_distill.h, docs/BFM.md "Session 27"), in resumable chunks.
-//   t2m train bfm-distill --policy P --out DIR [--contents raise-up,wave] [--every K] [--chunk-clips 40]
-//       [--minutes M] [--search-samples 64 --search-horizon 5 --search-sigma 0.3 --elites 8 --action-noise 0.03
-//       --search-seed 1] [--anchor-clips 400 --anchor-noise 0.05 --anchor-weight 1 --updates 6000 --lr 1e-4
-//       --batch 256] [--threads T] [--export OUT.t2mckpt [--fit-partial]]
-// Stage 1 (collection): the train clips whose content label starts with one of --contents (every K-th, name
-// order) are tracked by the z search of P with action noise, in chunks of --chunk-clips clips; chunk k is written to
-// DIR/rows_NNNNN.t2mckpt (NNNNN = its first clip) atomically and skipped when present, so an interrupted or
+//   t2m train bfm-distill --policy P --out DIR [--contents raise-up,wave] [--every K [--offset O]]
+//       [--chunk-clips 40] [--max-chunks C] [--minutes M] [--search-samples 64 --search-horizon 5
+//       --search-sigma 0.3 --elites 8 --action-noise 0.03 --search-seed 1] [--anchor-clips 400 --anchor-noise 0.05
+//       --anchor-weight 1 --updates 6000 --lr 1e-4 --batch 256] [--threads T] [--export OUT.t2mckpt
+//       [--fit-partial]] [--with-rows EARLIER_DIR ...]
+// Stage 1 (collection): the train clips whose content label starts with one of --contents (every K-th from the
+// O-th, name order; with --max-chunks only the first C chunks) are tracked by the z search of P with action
+// noise, in chunks of --chunk-clips clips; chunk k is written to DIR/rows_NNNNN.t2mckpt (NNNNN = its first clip)
+// atomically and skipped when present, so an interrupted or
 // --minutes-limited run resumes at the first missing chunk. Clip i of the selection uses search seed + i.
 // Stage 2 (once every chunk exists, or with --fit-partial on the chunks present, and --export is given): anchor
 // rows from plain Eq 2 rollouts of P on the train clips of the other contents (--anchor-clips spread over the
-// split), the actor fit, the policy written to OUT.
+// split), the actor fit on this round's rows and those of --with-rows (earlier rounds: DAgger aggregation), the
+// policy written to OUT.
 // DIR/config.json holds the selection and search options of the first invocation; later ones must agree.
 #include <algorithm>
 #include <chrono>
@@ -42,7 +45,7 @@ namespace data = t2m::data;
 struct DistillArgs {
   std::string policy = "models/checkpoints/bfm_track.t2mckpt", out, manifest, export_path, contents = "raise-up,wave";
   std::vector<std::string> with_rows;  // earlier rounds' row directories, fitted too (DAgger aggregation)
-  int every = 1, offset = 0, chunk_clips = 40, anchor_clips = 400, threads = 0;
+  int every = 1, offset = 0, max_chunks = 0, chunk_clips = 40, anchor_clips = 400, threads = 0;
   double minutes = 0, anchor_noise = 0.05;
   bool fit_partial = false;
   bfm::LatentSearchOptions search;
@@ -120,7 +123,8 @@ void run_distill(const DistillArgs& a) {
   const bfm::RefMotions all = bfm::load_ref_motions(*h, by_content(manifest, contents, true), data::Split::train, 0);
   bfm::RefMotions sel;
   for (int c = a.offset; c < all.clips(); c += a.every) sel.add(*h, all.names[c], all.trajectory(c));
-  const int n = sel.clips(), chunks = (n + a.chunk_clips - 1) / a.chunk_clips;
+  const int n = sel.clips(), all_chunks = (n + a.chunk_clips - 1) / a.chunk_clips;
+  const int chunks = a.max_chunks > 0 ? std::min(a.max_chunks, all_chunks) : all_chunks;  // the first ones only
   std::fprintf(stderr, "train bfm-distill: %d train clips of %s (every %d from %d), %d chunks of %d in %s\n", n,
                a.contents.c_str(), a.every, a.offset, chunks, a.chunk_clips, dir.c_str());
   int done = 0;
@@ -195,7 +199,8 @@ void run_distill(const DistillArgs& a) {
   info["fit"] = {{"chunks", used},         {"of_chunks", chunks}, {"updates", a.fit.updates},
                  {"lr", a.fit.lr},         {"batch", a.fit.batch},
                  {"anchor_weight", a.fit.anchor_weight}, {"anchor_clips", a.anchor_clips},
-                 {"anchor_noise", a.anchor_noise}, {"label_rows", labels.rows()}, {"anchor_rows", anchor.rows()}};
+                 {"anchor_noise", a.anchor_noise}, {"max_chunks", a.max_chunks},
+                 {"label_rows", labels.rows()}, {"anchor_rows", anchor.rows()}};
   info["data"] = "Bandai-Namco-Research-Motiondataset (CC BY-NC 4.0), train split";
   bfm::save_policy(*agent, a.export_path, info);
   std::printf("wrote %s (actor fine-tuned on the z search of %s)\n", a.export_path.c_str(), a.policy.c_str());
@@ -215,6 +220,8 @@ void add_train_bfm_distill(CLI::App& app) {
       ->capture_default_str()->check(CLI::NonNegativeNumber);
   c->add_option("--with-rows", a.with_rows, "earlier rounds' row directories, fitted with this one's (repeatable)")
       ->check(CLI::ExistingDirectory);
+  c->add_option("--max-chunks", a.max_chunks, "search and fit only the first K chunks (0 = all; a shorter round)")
+      ->capture_default_str()->check(CLI::NonNegativeNumber);
   c->add_option("--chunk-clips", a.chunk_clips, "clips per rows file")->capture_default_str()->check(CLI::PositiveNumber);
   c->add_option("--minutes", a.minutes, "start no new chunk after M minutes (0 = no limit)");
   c->add_option("--search-samples", a.search.samples, "z search: candidates per window")->capture_default_str();

@@ -6,12 +6,18 @@
 # finished search chunks and rounds are kept under $T2M_CACHE/bfm/distill_rounds (default ~/.cache/t2m).
 # Deterministic for the thread count (2 here). About 40-100 min of search per round on 2 cores.
 # Usage: bash tools/train_bfm_distill.sh [OUT (default models/checkpoints/bfm_distill.t2mckpt)] [ROUNDS (default 3)]
+#            [LAST_CHUNKS (default 0: all 6; the last round searches and fits only its first LAST_CHUNKS chunks of 40)]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-models/checkpoints/bfm_distill.t2mckpt}
 rounds=${2:-3}
+last_chunks=${3:-0}
 offsets=(0 3 1 5 2 4)  # round k searches clips offsets[k-1], offsets[k-1] + 6, ... of the name-ordered selection
 if ! [[ "$rounds" =~ ^[1-6]$ ]]; then echo "train_bfm_distill.sh: ROUNDS must be 1..6, got '$rounds'" >&2; exit 2; fi
+if ! [[ "$last_chunks" =~ ^[0-6]$ ]]; then
+  echo "train_bfm_distill.sh: LAST_CHUNKS must be 0..6, got '$last_chunks'" >&2
+  exit 2
+fi
 export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive}
 bash tools/setup.sh >/dev/null
 dir=${T2M_CACHE:-$HOME/.cache/t2m}/bfm/distill_rounds
@@ -22,13 +28,15 @@ for ((k = 1; k <= rounds; ++k)); do
   o=${offsets[k - 1]}
   off=()
   if ((o > 0)); then off=(--offset "$o"); fi
-  if [[ ! -f "$dir/r$k.t2mckpt" ]]; then
+  part=() name=r$k
+  if ((k == rounds && last_chunks > 0)); then part=(--max-chunks "$last_chunks") name=r${k}_c$last_chunks; fi
+  if [[ ! -f "$dir/$name.t2mckpt" ]]; then
     # A round whose search stops early (a cut-off session) writes no policy; running the script again resumes it.
-    ./build/t2m train bfm-distill --policy "$policy" --out "$dir/r$k" --every 6 "${off[@]}" "${with[@]}" \
-      --threads 2 --export "$dir/r$k.t2mckpt"
+    ./build/t2m train bfm-distill --policy "$policy" --out "$dir/r$k" --every 6 "${off[@]}" "${part[@]}" "${with[@]}" \
+      --threads 2 --export "$dir/$name.t2mckpt"
   fi
-  [[ -f "$dir/r$k.t2mckpt" ]] || { echo "train_bfm_distill.sh: round $k did not finish" >&2; exit 1; }
-  policy=$dir/r$k.t2mckpt
+  [[ -f "$dir/$name.t2mckpt" ]] || { echo "train_bfm_distill.sh: round $k did not finish" >&2; exit 1; }
+  policy=$dir/$name.t2mckpt
   with+=(--with-rows "$dir/r$k")
 done
 cp "$policy" "$out.tmp" && mv "$out.tmp" "$out"
