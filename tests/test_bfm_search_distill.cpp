@@ -204,10 +204,11 @@ TEST(BfmSearchDistill, TrainBfmDistillRefusesBadFlags) {
   const std::string policy = std::string(T2M_SOURCE_DIR) + "/models/checkpoints/bfm_track.t2mckpt";
   const fs::path out = w / "rows";
   const std::string good = "--policy '" + policy + "' --out '" + out.string() + "' ";
+  fs::create_directories(w / "empty");  // an earlier round's directory without rows: refused before the search
   for (const std::string& args :
        {good + "--every 0", good + "--search-samples 8 --elites 9", good + "--action-noise -1", good + "--contents ,",
         good + "--chunk-clips 0", good + "--no-such-flag", good + "--every 3 --offset 3", good + "--offset -1", good + "--max-chunks -2",
-        good + "--with-rows '" + (w / "none").string() + "'",
+        good + "--with-rows '" + (w / "none").string() + "'", good + "--with-rows '" + (w / "empty").string() + "'",
         "--policy '" + (w / "none").string() + "' --out '" + out.string() + "'"}) {
     EXPECT_NE(run_t2m("train bfm-distill " + args, w / "bad.log"), 0) << args;
     EXPECT_EQ(read_text(w / "bad.log").rfind("t2m: ", 0), 0u) << read_text(w / "bad.log");

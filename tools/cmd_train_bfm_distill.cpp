@@ -88,6 +88,17 @@ std::string chunk_path(const std::string& dir, int first) {
   return dir + name;
 }
 
+// The rows_*.t2mckpt files of an earlier round's directory, name order; none is an error.
+std::vector<std::string> row_files(const std::string& dir) {
+  std::vector<std::string> files;
+  for (const auto& e : fs::directory_iterator(dir))
+    if (e.path().extension() == ".t2mckpt" && e.path().filename().string().rfind("rows_", 0) == 0)
+      files.push_back(e.path().string());
+  if (files.empty()) throw Error("train bfm-distill: --with-rows " + dir + " holds no rows_*.t2mckpt");
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
 void run_distill(const DistillArgs& a) {
   const auto t0 = std::chrono::steady_clock::now();
   if (a.threads > 0) t2m::set_num_threads(a.threads);
@@ -96,13 +107,15 @@ void run_distill(const DistillArgs& a) {
   if (contents.empty()) throw Error("train bfm-distill: --contents names no content label");
   const std::string dir = a.out.empty() ? data::default_cache_dir() + "/bfm/distill" : a.out;
   json cfg = {{"policy", a.policy},          {"contents", a.contents},          {"every", a.every},
-                    {"chunk_clips", a.chunk_clips}, {"samples", a.search.samples},     {"window", a.search.window},
-                    {"horizon", a.search.horizon},  {"sigma", a.search.sigma},         {"carry", a.search.carry},
-                    {"elites", a.search.elites},    {"action_noise", a.search.action_noise},
-                    {"seed", a.search.seed}};
+              {"chunk_clips", a.chunk_clips}, {"samples", a.search.samples},     {"window", a.search.window},
+              {"horizon", a.search.horizon},  {"sigma", a.search.sigma},         {"carry", a.search.carry},
+              {"elites", a.search.elites},    {"action_noise", a.search.action_noise},
+              {"seed", a.search.seed}};
   if (a.offset >= a.every) throw Error("train bfm-distill: --offset must be below --every");
   if (a.offset > 0) cfg["offset"] = a.offset;  // absent when 0: directories of earlier builds stay valid
   auto agent = bfm::load_policy(a.policy);  // before touching DIR: a bad policy leaves nothing behind
+  std::vector<std::vector<std::string>> earlier;  // --with-rows files, checked before the long search
+  for (const std::string& d2 : a.with_rows) earlier.push_back(row_files(d2));
   const std::string manifest_path =
       a.manifest.empty() ? data::default_cache_dir() + "/bandai/manifest.json" : a.manifest;
   const data::Manifest manifest = data::load_manifest(manifest_path);
@@ -159,29 +172,18 @@ void run_distill(const DistillArgs& a) {
 
   const int D = agent->config().obs_dim, d = agent->config().z_dim, A = agent->config().action_dim;
   bfm::SearchRows labels;
-  int used = 0;
-  for (int k = 0; k < chunks; ++k) {
-    if (!fs::exists(chunk_path(dir, k * a.chunk_clips))) continue;  // only with --fit-partial
-    ++used;
+  const auto append_file = [&](const std::string& path, int first_clip) {  // -> clips in the file
     std::vector<std::string> names;
-    const bfm::SearchRows r = bfm::load_search_rows(chunk_path(dir, k * a.chunk_clips), D, d, A, &names);
-    bfm::append_search_rows(labels, r, k * a.chunk_clips);
-  }
+    bfm::append_search_rows(labels, bfm::load_search_rows(path, D, d, A, &names), first_clip);
+    return (int)names.size();
+  };
+  int used = 0;
+  for (int k = 0; k < chunks; ++k)
+    if (fs::exists(chunk_path(dir, k * a.chunk_clips)))  // all of them unless --fit-partial
+      append_file(chunk_path(dir, k * a.chunk_clips), k * a.chunk_clips), ++used;
   int extra = 0;  // rows of earlier rounds: clip ids moved past this round's
-  for (const std::string& d2 : a.with_rows) {
-    std::vector<fs::path> files;
-    for (const auto& e : fs::directory_iterator(d2))
-      if (e.path().extension() == ".t2mckpt" && e.path().filename().string().rfind("rows_", 0) == 0)
-        files.push_back(e.path());
-    if (files.empty()) throw Error("train bfm-distill: --with-rows " + d2 + " holds no rows_*.t2mckpt");
-    std::sort(files.begin(), files.end());
-    for (const auto& f : files) {
-      std::vector<std::string> names;
-      const bfm::SearchRows r = bfm::load_search_rows(f.string(), D, d, A, &names);
-      bfm::append_search_rows(labels, r, n + extra);
-      extra += (int)names.size();
-    }
-  }
+  for (const auto& files : earlier)
+    for (const std::string& f : files) extra += append_file(f, n + extra);
   const bfm::RefMotions others = bfm::load_ref_motions(*h, by_content(manifest, contents, false), data::Split::train,
                                                        a.anchor_clips);
   const bfm::SearchRows anchor = bfm::plain_tracking_rows(*agent, h, others, a.anchor_noise, a.search.seed);
