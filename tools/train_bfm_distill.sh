@@ -5,17 +5,25 @@
 # student's own states, DAgger) and fits on the rows of every round so far. Resumable: run it again after a stop;
 # finished search chunks and rounds are kept under $T2M_CACHE/bfm/distill_rounds (default ~/.cache/t2m).
 # Deterministic for the thread count (2 here). About 40-100 min of search per round on 2 cores.
+# Wave rounds (session 29) follow: the same, on every 3rd wave training clip only (offsets 0, 1, 2), which weights the
+# clips the policy still falls on most.
 # Usage: bash tools/train_bfm_distill.sh [OUT (default models/checkpoints/bfm_distill.t2mckpt)] [ROUNDS (default 3)]
-#            [LAST_CHUNKS (default 0: all 6; the last round searches and fits only its first LAST_CHUNKS chunks of 40)]
+#            [LAST_CHUNKS (default 0: all 6; round ROUNDS searches and fits only its first LAST_CHUNKS chunks of 40)]
+#            [WAVE_ROUNDS (default 0; at most 3)]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-models/checkpoints/bfm_distill.t2mckpt}
 rounds=${2:-3}
 last_chunks=${3:-0}
+wave_rounds=${4:-0}
 offsets=(0 3 1 5 2 4)  # round k searches clips offsets[k-1], offsets[k-1] + 6, ... of the name-ordered selection
 if ! [[ "$rounds" =~ ^[1-6]$ ]]; then echo "train_bfm_distill.sh: ROUNDS must be 1..6, got '$rounds'" >&2; exit 2; fi
 if ! [[ "$last_chunks" =~ ^[0-6]$ ]]; then
   echo "train_bfm_distill.sh: LAST_CHUNKS must be 0..6, got '$last_chunks'" >&2
+  exit 2
+fi
+if ! [[ "$wave_rounds" =~ ^[0-3]$ ]]; then
+  echo "train_bfm_distill.sh: WAVE_ROUNDS must be 0..3, got '$wave_rounds'" >&2
   exit 2
 fi
 export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive}
@@ -24,20 +32,31 @@ dir=${T2M_CACHE:-$HOME/.cache/t2m}/bfm/distill_rounds
 mkdir -p "$dir"
 policy=models/checkpoints/bfm_track.t2mckpt
 with=()
+# round DIR_NAME POLICY_NAME FLAGS...: one round (search, then fit on its rows and every earlier round's)
+round() {
+  local name=$1 export=$2
+  shift 2
+  if [[ ! -f "$dir/$export.t2mckpt" ]]; then
+    # A round whose search stops early (a cut-off session) writes no policy; running the script again resumes it.
+    ./build/t2m train bfm-distill --policy "$policy" --out "$dir/$name" "$@" "${with[@]}" --threads 2 \
+      --export "$dir/$export.t2mckpt"
+  fi
+  [[ -f "$dir/$export.t2mckpt" ]] || { echo "train_bfm_distill.sh: round $name did not finish" >&2; exit 1; }
+  policy=$dir/$export.t2mckpt
+  with+=(--with-rows "$dir/$name")
+}
 for ((k = 1; k <= rounds; ++k)); do
   o=${offsets[k - 1]}
   off=()
   if ((o > 0)); then off=(--offset "$o"); fi
   part=() name=r$k
   if ((k == rounds && last_chunks > 0)); then part=(--max-chunks "$last_chunks") name=r${k}_c$last_chunks; fi
-  if [[ ! -f "$dir/$name.t2mckpt" ]]; then
-    # A round whose search stops early (a cut-off session) writes no policy; running the script again resumes it.
-    ./build/t2m train bfm-distill --policy "$policy" --out "$dir/r$k" --every 6 "${off[@]}" "${part[@]}" "${with[@]}" \
-      --threads 2 --export "$dir/$name.t2mckpt"
-  fi
-  [[ -f "$dir/$name.t2mckpt" ]] || { echo "train_bfm_distill.sh: round $k did not finish" >&2; exit 1; }
-  policy=$dir/$name.t2mckpt
-  with+=(--with-rows "$dir/r$k")
+  round "r$k" "$name" --every 6 "${off[@]}" "${part[@]}"
+done
+for ((w = 1; w <= wave_rounds; ++w)); do
+  off=()
+  if ((w > 1)); then off=(--offset $((w - 1))); fi
+  round "w$w" "w$w" --contents wave --every 3 "${off[@]}"
 done
 cp "$policy" "$out.tmp" && mv "$out.tmp" "$out"
-echo "wrote $out ($rounds rounds; rows and round policies in $dir)"
+echo "wrote $out ($rounds rounds, $wave_rounds wave rounds; rows and round policies in $dir)"
