@@ -8,8 +8,8 @@
 # Wave rounds (session 29) follow: the same, on every 3rd wave training clip only (offsets 0, 1, 2), which weights the
 # clips the policy still falls on most.
 # Usage: bash tools/train_bfm_distill.sh [OUT (default models/checkpoints/bfm_distill.t2mckpt)] [ROUNDS (default 3)]
-#            [LAST_CHUNKS (default 0: all 6; round ROUNDS searches and fits only its first LAST_CHUNKS chunks of 40)]
-#            [WAVE_ROUNDS (default 0; at most 3)]
+#            [LAST_CHUNKS (default 0: all; the last round run, wave rounds included, searches and fits only its first
+#             LAST_CHUNKS chunks of 40)] [WAVE_ROUNDS (default 0; at most 3)]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-models/checkpoints/bfm_distill.t2mckpt}
@@ -50,13 +50,14 @@ for ((k = 1; k <= rounds; ++k)); do
   off=()
   if ((o > 0)); then off=(--offset "$o"); fi
   part=() name=r$k
-  if ((k == rounds && last_chunks > 0)); then part=(--max-chunks "$last_chunks") name=r${k}_c$last_chunks; fi
+  if ((k == rounds && wave_rounds == 0 && last_chunks > 0)); then part=(--max-chunks "$last_chunks") name=r${k}_c$last_chunks; fi
   round "r$k" "$name" --every 6 "${off[@]}" "${part[@]}"
 done
 for ((w = 1; w <= wave_rounds; ++w)); do
-  off=()
+  off=() part=() name=w$w
   if ((w > 1)); then off=(--offset $((w - 1))); fi
-  round "w$w" "w$w" --contents wave --every 3 "${off[@]}"
+  if ((w == wave_rounds && last_chunks > 0)); then part=(--max-chunks "$last_chunks") name=w${w}_c$last_chunks; fi
+  round "w$w" "$name" --contents wave --every 3 "${off[@]}" "${part[@]}"
 done
 cp "$policy" "$out.tmp" && mv "$out.tmp" "$out"
 echo "wrote $out ($rounds rounds, $wave_rounds wave rounds; rows and round policies in $dir)"
