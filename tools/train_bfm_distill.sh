@@ -32,17 +32,17 @@ dir=${T2M_CACHE:-$HOME/.cache/t2m}/bfm/distill_rounds
 mkdir -p "$dir"
 policy=models/checkpoints/bfm_track.t2mckpt
 with=()
-# round DIR_NAME POLICY_NAME FLAGS...: one round (search, then fit on its rows and every earlier round's)
+# round ROWS_DIR POLICY_FILE FLAGS...: one round (search, then fit on its rows and every earlier round's)
 round() {
-  local name=$1 export=$2
+  local name=$1 file=$2
   shift 2
-  if [[ ! -f "$dir/$export.t2mckpt" ]]; then
+  if [[ ! -f "$dir/$file.t2mckpt" ]]; then
     # A round whose search stops early (a cut-off session) writes no policy; running the script again resumes it.
     ./build/t2m train bfm-distill --policy "$policy" --out "$dir/$name" "$@" "${with[@]}" --threads 2 \
-      --export "$dir/$export.t2mckpt"
+      --export "$dir/$file.t2mckpt"
   fi
-  [[ -f "$dir/$export.t2mckpt" ]] || { echo "train_bfm_distill.sh: round $name did not finish" >&2; exit 1; }
-  policy=$dir/$export.t2mckpt
+  [[ -f "$dir/$file.t2mckpt" ]] || { echo "train_bfm_distill.sh: round $name did not finish" >&2; exit 1; }
+  policy=$dir/$file.t2mckpt
   with+=(--with-rows "$dir/$name")
 }
 for ((k = 1; k <= rounds; ++k)); do
