@@ -3,7 +3,7 @@
 //   t2m train bfm-distill --policy P --out DIR [--contents raise-up,wave] [--every K [--offset O]]
 //       [--chunk-clips 40] [--max-chunks C] [--minutes M] [--search-samples 64 --search-horizon 5
 //       --search-sigma 0.3 --elites 8 --action-noise 0.03 --search-seed 1] [--anchor-clips 400 --anchor-noise 0.05
-//       --anchor-weight 1 --updates 6000 --lr 1e-4 --batch 256] [--threads T] [--export OUT.t2mckpt
+//       --anchor-weight 1 --updates 6000 --lr 1e-4 --batch 256 --fit-seed 7] [--threads T] [--export OUT.t2mckpt
 //       [--fit-partial]] [--with-rows EARLIER_DIR ...]
 // Stage 1 (collection): the train clips whose content label starts with one of --contents (every K-th from the
 // O-th, name order; with --max-chunks only the first C chunks) are tracked by the z search of P with action
@@ -199,7 +199,7 @@ void run_distill(const DistillArgs& a) {
   json info = cfg;
   info["with_rows"] = a.with_rows;
   info["fit"] = {{"chunks", used},         {"of_chunks", chunks}, {"updates", a.fit.updates},
-                 {"lr", a.fit.lr},         {"batch", a.fit.batch},
+                 {"lr", a.fit.lr},         {"batch", a.fit.batch},  {"seed", a.fit.seed},
                  {"anchor_weight", a.fit.anchor_weight}, {"anchor_clips", a.anchor_clips},
                  {"anchor_noise", a.anchor_noise}, {"max_chunks", a.max_chunks},
                  {"label_rows", labels.rows()}, {"anchor_rows", anchor.rows()}};
@@ -240,6 +240,7 @@ void add_train_bfm_distill(CLI::App& app) {
   c->add_option("--updates", a.fit.updates, "fit: AdamW updates")->capture_default_str()->check(CLI::PositiveNumber);
   c->add_option("--lr", a.fit.lr, "fit: peak learning rate (cosine to 0)")->capture_default_str();
   c->add_option("--batch", a.fit.batch, "fit: rows of each kind per update")->capture_default_str()->check(CLI::PositiveNumber);
+  c->add_option("--fit-seed", a.fit.seed, "fit: seed of the batch sampling")->capture_default_str();
   c->add_option("--threads", a.threads, "threads (0 = default); results are deterministic per thread count");
   c->add_option("--export", a.export_path, "when every chunk exists: fit and write the fine-tuned policy here");
   c->add_flag("--fit-partial", a.fit_partial, "with --export: fit on the chunks present even if some are missing");
