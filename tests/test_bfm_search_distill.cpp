@@ -181,6 +181,32 @@ TEST(BfmSearchDistill, FitOverfitsAFewRowsAndKeepsTheAnchor) {
   EXPECT_THROW(fit_actor_to_search(wrong, labels, anchor, o), Error);  // rows of other dims
 }
 
+TEST(BfmSearchDistill, FitIsDeterministicForItsSeedAndTheSeedMatters) {
+  const RefMotions r = sway_refs({{12, 0.05}});
+  FbAgent base(tiny_fb_config(), 6);
+  const SearchRows anchor = plain_tracking_rows(base, humanoid(), r, 0.05, 1);
+  SearchRows labels = anchor;
+  FbAgent teacher(tiny_fb_config(), 7);
+  for (int64_t i = 0; i < labels.rows(); ++i) {
+    const std::vector<float> a = mean_of_row(teacher, labels, i);
+    std::copy(a.begin(), a.end(), labels.action.begin() + i * (int64_t)a.size());
+  }
+  DistillOptions o;
+  o.updates = 20;
+  o.batch = 4;  // fewer than the rows: the seed picks the batches
+  o.lr = 3e-3;
+  const auto fitted_mean = [&](uint64_t seed) {
+    FbAgent agent(tiny_fb_config(), 6);
+    o.seed = seed;
+    fit_actor_to_search(agent, labels, anchor, o);
+    return mean_of_row(agent, labels, 0);
+  };
+  ASSERT_GT(labels.rows(), o.batch);
+  const std::vector<float> a7 = fitted_mean(7);
+  EXPECT_EQ(a7, fitted_mean(7));
+  EXPECT_NE(a7, fitted_mean(8));
+}
+
 TEST(BfmSearchDistill, SearchOptionsRefuseBadElitesAndNoise) {
   LatentSearchOptions o;
   o.samples = 8;
@@ -208,6 +234,7 @@ TEST(BfmSearchDistill, TrainBfmDistillRefusesBadFlags) {
   for (const std::string& args :
        {good + "--every 0", good + "--search-samples 8 --elites 9", good + "--action-noise -1", good + "--contents ,",
         good + "--chunk-clips 0", good + "--no-such-flag", good + "--every 3 --offset 3", good + "--offset -1", good + "--max-chunks -2",
+        good + "--fit-seed x",
         good + "--with-rows '" + (w / "none").string() + "'", good + "--with-rows '" + (w / "empty").string() + "'",
         "--policy '" + (w / "none").string() + "' --out '" + out.string() + "'"}) {
     EXPECT_NE(run_t2m("train bfm-distill " + args, w / "bad.log"), 0) << args;
