@@ -37,6 +37,16 @@ std::vector<float> mean_of_row(FbAgent& agent, const SearchRows& rows, int64_t r
   const Tensor a = agent.actor_mean(s, z).contiguous();
   return std::vector<float>(a.data<float>(), a.data<float>() + a.numel());
 }
+
+// Relabels rows with the mean of another actor of the same shape (seed 7): labels the fit can reach.
+void label_with_teacher(SearchRows& rows) {
+  FbAgent teacher(tiny_fb_config(), 7);
+  for (int64_t i = 0; i < rows.rows(); ++i) {
+    const std::vector<float> a = mean_of_row(teacher, rows, i);
+    std::copy(a.begin(), a.end(), rows.action.begin() + i * (int64_t)a.size());
+  }
+}
+
 fs::path scratch(const std::string& tag) {
   const fs::path w = fs::temp_directory_path() / ("t2m_search_distill_" + tag + "_" + std::to_string(::getpid()));
   fs::remove_all(w);
@@ -147,11 +157,7 @@ TEST(BfmSearchDistill, FitOverfitsAFewRowsAndKeepsTheAnchor) {
   const RefMotions r = sway_refs({{12, 0.05}});
   SearchRows labels = plain_tracking_rows(agent, humanoid(), r, 0.05, 1);
   const SearchRows anchor = labels;  // the same states, labelled with the current mean
-  FbAgent teacher(tiny_fb_config(), 7);        // labels another actor of the same shape produces: reachable
-  for (int64_t i = 0; i < labels.rows(); ++i) {
-    const std::vector<float> a = mean_of_row(teacher, labels, i);
-    std::copy(a.begin(), a.end(), labels.action.begin() + i * (int64_t)a.size());
-  }
+  label_with_teacher(labels);
   DistillOptions o;
   o.updates = 300;
   o.batch = 8;
@@ -186,11 +192,7 @@ TEST(BfmSearchDistill, FitIsDeterministicForItsSeedAndTheSeedMatters) {
   FbAgent base(tiny_fb_config(), 6);
   const SearchRows anchor = plain_tracking_rows(base, humanoid(), r, 0.05, 1);
   SearchRows labels = anchor;
-  FbAgent teacher(tiny_fb_config(), 7);
-  for (int64_t i = 0; i < labels.rows(); ++i) {
-    const std::vector<float> a = mean_of_row(teacher, labels, i);
-    std::copy(a.begin(), a.end(), labels.action.begin() + i * (int64_t)a.size());
-  }
+  label_with_teacher(labels);
   DistillOptions o;
   o.updates = 20;
   o.batch = 4;  // fewer than the rows: the seed picks the batches
