@@ -6,16 +6,19 @@
 # finished search chunks and rounds are kept under $T2M_CACHE/bfm/distill_rounds (default ~/.cache/t2m).
 # Deterministic for the thread count (2 here). About 40-100 min of search per round on 2 cores.
 # Wave rounds (session 29) follow: the same, on every 3rd wave training clip only (offsets 0, 1, 2), which weights the
-# clips the policy still falls on most.
+# clips the policy still falls on most. Raise rounds (session 31) follow those: every 6th raise-up training clip
+# (offsets 2, 4, 0 of the raise-up clips alone).
 # Usage: bash tools/train_bfm_distill.sh [OUT (default models/checkpoints/bfm_distill.t2mckpt)] [ROUNDS (default 3)]
-#            [LAST_CHUNKS (default 0: all; the last round run, wave rounds included, searches and fits only its first
-#             LAST_CHUNKS chunks of 40)] [WAVE_ROUNDS (default 0; at most 3)]
+#            [LAST_CHUNKS (default 0: all; the last round run, wave and raise rounds included, searches and fits only
+#             its first LAST_CHUNKS chunks of 40)] [WAVE_ROUNDS (default 0; at most 3)] [RAISE_ROUNDS (default 0; at
+#             most 3; they need ROUNDS 4 and WAVE_ROUNDS 3)]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-models/checkpoints/bfm_distill.t2mckpt}
 rounds=${2:-3}
 last_chunks=${3:-0}
 wave_rounds=${4:-0}
+raise_rounds=${5:-0}
 offsets=(0 3 1 5 2 4)  # round k searches clips offsets[k-1], offsets[k-1] + 6, ... of the name-ordered selection
 if ! [[ "$rounds" =~ ^[1-6]$ ]]; then echo "train_bfm_distill.sh: ROUNDS must be 1..6, got '$rounds'" >&2; exit 2; fi
 if ! [[ "$last_chunks" =~ ^[0-6]$ ]]; then
@@ -24,6 +27,11 @@ if ! [[ "$last_chunks" =~ ^[0-6]$ ]]; then
 fi
 if ! [[ "$wave_rounds" =~ ^[0-3]$ ]]; then
   echo "train_bfm_distill.sh: WAVE_ROUNDS must be 0..3, got '$wave_rounds'" >&2
+  exit 2
+fi
+if ! [[ "$raise_rounds" =~ ^[0-3]$ ]] || ((raise_rounds > 0 && (rounds != 4 || wave_rounds != 3))); then
+  echo "train_bfm_distill.sh: RAISE_ROUNDS must be 0..3, and 1..3 only after 4 rounds and 3 wave rounds, got" \
+    "'$raise_rounds'" >&2
   exit 2
 fi
 export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive}
@@ -45,19 +53,30 @@ round() {
   policy=$dir/$file.t2mckpt
   with+=(--with-rows "$dir/$name")
 }
+total=$((rounds + wave_rounds + raise_rounds)) run=0
+# next_round NAME FLAGS...: the next round in order; the last one run takes LAST_CHUNKS (its file is NAME_cN then)
+next_round() {
+  local name=$1 file=$1
+  shift
+  run=$((run + 1))
+  local part=()
+  if ((run == total && last_chunks > 0)); then part=(--max-chunks "$last_chunks") file=${name}_c$last_chunks; fi
+  round "$name" "$file" "$@" "${part[@]}"
+}
 for ((k = 1; k <= rounds; ++k)); do
   o=${offsets[k - 1]}
   off=()
   if ((o > 0)); then off=(--offset "$o"); fi
-  part=() name=r$k
-  if ((k == rounds && wave_rounds == 0 && last_chunks > 0)); then part=(--max-chunks "$last_chunks") name=r${k}_c$last_chunks; fi
-  round "r$k" "$name" --every 6 "${off[@]}" "${part[@]}"
+  next_round "r$k" --every 6 "${off[@]}"
 done
 for ((w = 1; w <= wave_rounds; ++w)); do
-  off=() part=() name=w$w
+  off=()
   if ((w > 1)); then off=(--offset $((w - 1))); fi
-  if ((w == wave_rounds && last_chunks > 0)); then part=(--max-chunks "$last_chunks") name=w${w}_c$last_chunks; fi
-  round "w$w" "$name" --contents wave --every 3 "${off[@]}" "${part[@]}"
+  next_round "w$w" --contents wave --every 3 "${off[@]}"
+done
+raise_offsets=(2 4 0)
+for ((r = 1; r <= raise_rounds; ++r)); do
+  next_round "ra$r" --contents raise-up --every 6 --offset "${raise_offsets[r - 1]}"
 done
 cp "$policy" "$out.tmp" && mv "$out.tmp" "$out"
-echo "wrote $out ($rounds rounds, $wave_rounds wave rounds; rows and round policies in $dir)"
+echo "wrote $out ($rounds rounds, $wave_rounds wave rounds, $raise_rounds raise rounds; rows and round policies in $dir)"
