@@ -63,16 +63,12 @@ next_round() {
   if ((run == total && last_chunks > 0)); then part=(--max-chunks "$last_chunks") file=${name}_c$last_chunks; fi
   round "$name" "$file" "$@" "${part[@]}"
 }
+# (--offset 0 is the default and stays out of a round's config.json, so passing it changes nothing.)
 for ((k = 1; k <= rounds; ++k)); do
-  o=${offsets[k - 1]}
-  off=()
-  if ((o > 0)); then off=(--offset "$o"); fi
-  next_round "r$k" --every 6 "${off[@]}"
+  next_round "r$k" --every 6 --offset "${offsets[k - 1]}"
 done
 for ((w = 1; w <= wave_rounds; ++w)); do
-  off=()
-  if ((w > 1)); then off=(--offset $((w - 1))); fi
-  next_round "w$w" --contents wave --every 3 "${off[@]}"
+  next_round "w$w" --contents wave --every 3 --offset $((w - 1))
 done
 raise_offsets=(2 4 0)
 for ((r = 1; r <= raise_rounds; ++r)); do
