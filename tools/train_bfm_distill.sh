@@ -40,28 +40,23 @@ dir=${T2M_CACHE:-$HOME/.cache/t2m}/bfm/distill_rounds
 mkdir -p "$dir"
 policy=models/checkpoints/bfm_track.t2mckpt
 with=()
-# round ROWS_DIR POLICY_FILE FLAGS...: one round (search, then fit on its rows and every earlier round's)
-round() {
-  local name=$1 file=$2
-  shift 2
-  if [[ ! -f "$dir/$file.t2mckpt" ]]; then
-    # A round whose search stops early (a cut-off session) writes no policy; running the script again resumes it.
-    ./build/t2m train bfm-distill --policy "$policy" --out "$dir/$name" "$@" "${with[@]}" --threads 2 \
-      --export "$dir/$file.t2mckpt"
-  fi
-  [[ -f "$dir/$file.t2mckpt" ]] || { echo "train_bfm_distill.sh: round $name did not finish" >&2; exit 1; }
-  policy=$dir/$file.t2mckpt
-  with+=(--with-rows "$dir/$name")
-}
 total=$((rounds + wave_rounds + raise_rounds)) run=0
-# next_round NAME FLAGS...: the next round in order; the last one run takes LAST_CHUNKS (its file is NAME_cN then)
+# next_round NAME FLAGS...: the next round in order (search, then fit on its rows and every earlier round's; rows in
+# $dir/NAME). The last one run takes LAST_CHUNKS (its policy file is then NAME_cN).
 next_round() {
   local name=$1 file=$1
   shift
   run=$((run + 1))
   local part=()
   if ((run == total && last_chunks > 0)); then part=(--max-chunks "$last_chunks") file=${name}_c$last_chunks; fi
-  round "$name" "$file" "$@" "${part[@]}"
+  if [[ ! -f "$dir/$file.t2mckpt" ]]; then
+    # A round whose search stops early (a cut-off session) writes no policy; running the script again resumes it.
+    ./build/t2m train bfm-distill --policy "$policy" --out "$dir/$name" "$@" "${part[@]}" "${with[@]}" --threads 2 \
+      --export "$dir/$file.t2mckpt"
+  fi
+  [[ -f "$dir/$file.t2mckpt" ]] || { echo "train_bfm_distill.sh: round $name did not finish" >&2; exit 1; }
+  policy=$dir/$file.t2mckpt
+  with+=(--with-rows "$dir/$name")
 }
 # (--offset 0 is the default and stays out of a round's config.json, so passing it changes nothing.)
 for ((k = 1; k <= rounds; ++k)); do
