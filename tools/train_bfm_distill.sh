@@ -7,11 +7,13 @@
 # Deterministic for the thread count (2 here). About 40-100 min of search per round on 2 cores.
 # Wave rounds (session 29) follow: the same, on every 3rd wave training clip only (offsets 0, 1, 2), which weights the
 # clips the policy still falls on most. Raise rounds (session 31) follow those: every 6th raise-up training clip
-# (offsets 2, 4, 0 of the raise-up clips alone).
+# (offsets 2, 4, 0 of the raise-up clips alone). Late rounds (session 32) alternate after those: w4 = every 6th wave
+# clip from 0, ra4 = every 6th raise-up clip from 1, w5 = every 6th wave clip from 3.
 # Usage: bash tools/train_bfm_distill.sh [OUT (default models/checkpoints/bfm_distill.t2mckpt)] [ROUNDS (default 3)]
 #            [LAST_CHUNKS (default 0: all; the last round run, wave and raise rounds included, searches and fits only
 #             its first LAST_CHUNKS chunks of 40)] [WAVE_ROUNDS (default 0; at most 3)] [RAISE_ROUNDS (default 0; at
-#             most 3; they need ROUNDS 4 and WAVE_ROUNDS 3)]
+#             most 3; they need ROUNDS 4 and WAVE_ROUNDS 3)] [LATE_ROUNDS (default 0; at most 3; they need
+#             RAISE_ROUNDS 3)]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-models/checkpoints/bfm_distill.t2mckpt}
@@ -19,6 +21,7 @@ rounds=${2:-3}
 last_chunks=${3:-0}
 wave_rounds=${4:-0}
 raise_rounds=${5:-0}
+late_rounds=${6:-0}
 offsets=(0 3 1 5 2 4)  # round k searches clips offsets[k-1], offsets[k-1] + 6, ... of the name-ordered selection
 if ! [[ "$rounds" =~ ^[1-6]$ ]]; then echo "train_bfm_distill.sh: ROUNDS must be 1..6, got '$rounds'" >&2; exit 2; fi
 if ! [[ "$last_chunks" =~ ^[0-6]$ ]]; then
@@ -34,13 +37,17 @@ if ! [[ "$raise_rounds" =~ ^[0-3]$ ]] || ((raise_rounds > 0 && (rounds != 4 || w
     "'$raise_rounds'" >&2
   exit 2
 fi
+if ! [[ "$late_rounds" =~ ^[0-3]$ ]] || ((late_rounds > 0 && raise_rounds != 3)); then
+  echo "train_bfm_distill.sh: LATE_ROUNDS must be 0..3, and 1..3 only after 3 raise rounds, got '$late_rounds'" >&2
+  exit 2
+fi
 export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive}
 bash tools/setup.sh >/dev/null
 dir=${T2M_CACHE:-$HOME/.cache/t2m}/bfm/distill_rounds
 mkdir -p "$dir"
 policy=models/checkpoints/bfm_track.t2mckpt
 with=()
-total=$((rounds + wave_rounds + raise_rounds)) run=0
+total=$((rounds + wave_rounds + raise_rounds + late_rounds)) run=0
 # next_round NAME FLAGS...: the next round in order (search, then fit on its rows and every earlier round's; rows in
 # $dir/NAME). The last one run takes LAST_CHUNKS (its policy file is then NAME_cN).
 next_round() {
@@ -69,5 +76,11 @@ raise_offsets=(2 4 0)
 for ((r = 1; r <= raise_rounds; ++r)); do
   next_round "ra$r" --contents raise-up --every 6 --offset "${raise_offsets[r - 1]}"
 done
+late=("w4 --contents wave --every 6 --offset 0" "ra4 --contents raise-up --every 6 --offset 1"
+  "w5 --contents wave --every 6 --offset 3")
+for ((l = 0; l < late_rounds; ++l)); do
+  # shellcheck disable=SC2086  # the entries are word lists: NAME FLAGS...
+  next_round ${late[l]}
+done
 cp "$policy" "$out.tmp" && mv "$out.tmp" "$out"
-echo "wrote $out ($rounds rounds, $wave_rounds wave rounds, $raise_rounds raise rounds; rows and round policies in $dir)"
+echo "wrote $out ($rounds rounds, $wave_rounds wave rounds, $raise_rounds raise rounds, $late_rounds late rounds; rows and round policies in $dir)"
