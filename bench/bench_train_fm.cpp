@@ -7,11 +7,14 @@
 // Counters: ms (wall clock per step), cpu_ms (process CPU time per step over all threads: less sensitive to other
 // processes holding a core), GFLOP/s (Linear + attention-matmul FLOPs counted as torch_ref counts them: 3 x the
 // forward FLOPs, so the rates compare directly), %peak (GFLOP/s against 220 GFLOP/s per thread).
+// fm_paper_kv_form: fm-paper B32 Tm8 with every cross-attention in the K/V-projection form (mha_cross), against
+// fm_paper's value projection after the weighted sum (autograd/ops_mha_ctx.h).
 // Also BM_fm_attention: the attention core alone (fwd + bwd) at the generator's head shapes on each path.
 // Run: build-NAME/bench_train_fm --benchmark_min_time=2   (threads: OMP_NUM_THREADS, default 2 on this VM).
 #include <benchmark/benchmark.h>
 
 #include "bench/lib/step_timer.h"
+#include "autograd/ops_mha_ctx.h"
 #include "models/text2bfm/generator.h"
 #include "tensor/fused/attention.h"
 #include "nn/loss_flow.h"
@@ -44,8 +47,11 @@ double fm_forward_flops(const FlowGeneratorConfig& c, int64_t B, int64_t Tm, int
   return f + lin(b, W, 2 * W) + lin(bt, W, (double)c.latent);
 }
 
-void BM_train_fm(benchmark::State& st, const std::string& name) {
+// cross_form: "auto" (the cost rule of autograd/ops_mha_ctx.h) or "never" (always the K/V-projection form: the
+// comparison for the value projection after the weighted sum).
+void BM_train_fm(benchmark::State& st, const std::string& name, const char* cross_form = "auto") {
   const int64_t B = st.range(0), Tm = st.range(1);
+  ag::mha_cross_ctx_force(cross_form);
   const FlowGeneratorConfig cfg = FlowGeneratorConfig::by_name(name);
   Generator gen(1);
   FlowGenerator model(cfg, gen);
@@ -67,6 +73,7 @@ void BM_train_fm(benchmark::State& st, const std::string& name) {
   };
   bench::time_steps(st, [&] { benchmark::DoNotOptimize(step()); }, 3.0 * fm_forward_flops(cfg, B, Tm, kTextLen));
   st.counters["params_M"] = (double)model.num_parameters() * 1e-6;
+  ag::mha_cross_ctx_force("auto");
 }
 
 // The attention core alone (forward + backward, all three input gradients) at the generator's head shapes, on the
@@ -120,6 +127,11 @@ BENCHMARK_CAPTURE(BM_train_fm, fm_paper, std::string("fm-paper"))
     ->Args({32, 8})
     ->Args({32, 16})
     ->Args({256, 8})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_train_fm, fm_paper_kv_form, std::string("fm-paper"), "never")
+    ->ArgNames({"B", "Tm"})
+    ->Args({32, 8})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "autograd/ops_mha.h"
+#include "autograd/ops_mha_ctx.h"
 
 namespace t2m::nn {
 
@@ -58,7 +59,7 @@ ag::Variable MultiheadAttention::forward(const ag::Variable& x, const Tensor& ke
   return proj_->forward(ag::mha_self(qkv_->forward(x), norm_q(), norm_k(), key_mask, o));
 }
 
-// x (B,T,D) -> q (B,T,D); ctx (B,S,C) -> kv (B,S,2D); core (B,T,D) -> proj (B,T,D)
+// x (B,T,D) -> q (B,T,D); ctx (B,S,C) -> kv (B,S,2D) -> core, or ctx straight into mha_cross_ctx; proj (B,T,D)
 ag::Variable MultiheadAttention::forward_cross(const ag::Variable& x, const ag::Variable& ctx,
                                                const Tensor& ctx_mask) const {
   if (!cfg_.cross) throw Error("MultiheadAttention.forward_cross: this module is self-attention; call forward");
@@ -70,6 +71,10 @@ ag::Variable MultiheadAttention::forward_cross(const ag::Variable& x, const ag::
   ag::MhaOptions o;
   o.heads = cfg_.heads;
   o.norm_eps = cfg_.norm_eps;
+  // The value projection after the weighted sum where that takes fewer multiply-adds (autograd/ops_mha_ctx.h).
+  if (ag::mha_cross_ctx_chosen(x.size(1), ctx.size(1), cfg_.ctx_dim, cfg_.heads, head_dim()))
+    return proj_->forward(ag::mha_cross_ctx(q_->forward(x), ctx, kv_->weight(), kv_->bias(), norm_q(), norm_k(),
+                                            ctx_mask, o));
   return proj_->forward(ag::mha_cross(q_->forward(x), kv_->forward(ctx), norm_q(), norm_k(), ctx_mask, o));
 }
 

@@ -244,6 +244,29 @@ void head_forward(T* o, const HeadRows<T>& x, T* p, const T* m, int64_t Tq, int6
   }
 }
 
+// One head's probabilities p (Tq,Tk) from its q/k rows: scaled dot products and the masked softmax of each row.
+template <typename T>
+void head_probs(const HeadRows<T>& x, T* p, const T* m, int64_t Tq, int64_t Tk, int64_t d, bool causal, T scale) {
+  for (int64_t i = 0; i < Tq; ++i) {
+    T* pr = p + i * Tk;
+    const int64_t jend = causal ? i + 1 : Tk;
+    dots(pr, x.q + i * x.ldq, x.k, x.ldk, jend, d, scale);
+    softmax_row(pr, pr, m, jend, Tk);
+  }
+}
+
+// From dP (Tq rows of ds, row stride Tk, overwritten with dS = p * (dP - rowsum(p * dP)) * scale) to dq (Tq,d) and
+// dk (Tk,d) (either may be null).
+template <typename T, int D>
+void head_grads_from_dp(const HeadGradRows<T>& gr, const HeadRows<T>& x, const T* p, T* ds, int64_t Tq, int64_t Tk,
+                        int64_t d, T scale) {
+  for (int64_t i = 0; i < Tq; ++i) softmax_grad_row(ds + i * Tk, p + i * Tk, Tk, scale);
+  if (gr.dq)  // dq_i = sum_j ds_ij k_j
+    for (int64_t i = 0; i < Tq; ++i) wsum<T, D>(gr.dq + i * gr.ldq, ds + i * Tk, 1, x.k, x.ldk, Tk, d);
+  if (gr.dk)  // dk_j = sum_i ds_ij q_i
+    for (int64_t j = 0; j < Tk; ++j) wsum<T, D>(gr.dk + j * gr.ldk, ds + j, Tk, x.q, x.ldq, Tq, d);
+}
+
 // One head: dO = x.o (Tq,d), p (Tq,Tk) -> dq (Tq,d), dk/dv (Tk,d) (any may be null); ds: Tq*Tk scratch.
 template <typename T, int D>
 void head_backward(const HeadGradRows<T>& gr, const HeadRows<T>& x, const T* p, int64_t Tq, int64_t Tk, int64_t d,
@@ -251,15 +274,8 @@ void head_backward(const HeadGradRows<T>& gr, const HeadRows<T>& x, const T* p, 
   if (gr.dv)  // dv_j = sum_i p_ij g_i
     for (int64_t j = 0; j < Tk; ++j) wsum<T, D>(gr.dv + j * gr.ldv, p + j, Tk, x.o, x.ldo, Tq, d);
   if (!gr.dq && !gr.dk) return;
-  for (int64_t i = 0; i < Tq; ++i) {
-    T* dr = ds + i * Tk;
-    dots(dr, x.o + i * x.ldo, x.v, x.ldv, Tk, d, (T)1);  // dP row
-    softmax_grad_row(dr, p + i * Tk, Tk, scale);
-  }
-  if (gr.dq)  // dq_i = sum_j ds_ij k_j
-    for (int64_t i = 0; i < Tq; ++i) wsum<T, D>(gr.dq + i * gr.ldq, ds + i * Tk, 1, x.k, x.ldk, Tk, d);
-  if (gr.dk)  // dk_j = sum_i ds_ij q_i
-    for (int64_t j = 0; j < Tk; ++j) wsum<T, D>(gr.dk + j * gr.ldk, ds + j, Tk, x.q, x.ldq, Tq, d);
+  for (int64_t i = 0; i < Tq; ++i) dots(ds + i * Tk, x.o + i * x.ldo, x.v, x.ldv, Tk, d, (T)1);  // dP rows
+  head_grads_from_dp<T, D>(gr, x, p, ds, Tq, Tk, d, scale);
 }
 
 // Scratch of one thread for the register-blocked path: scores or dS (Tq x tkp), and K or V transposed (D x tkp).
@@ -269,10 +285,11 @@ struct HeadScratch {
   T xt[kMaxBlockedHeadDim * kMaxScoreVectors * Vec<T>::L];
 };
 
-// head_forward for a head served by the register-blocked path (tkp = padded_keys(Tq, Tk) > 0).
+// The probabilities p (Tq,Tk) of a head served by the register-blocked path (tkp = padded_keys(Tq, Tk) > 0):
+// S = scale Q K^T over the transposed keys, then the masked softmax of each row.
 template <typename T, int D>
-void head_forward_blocked(T* o, const HeadRows<T>& x, T* p, const T* m, int64_t Tq, int64_t Tk, int64_t tkp,
-                          bool causal, T scale, HeadScratch<T>& sc) {
+void head_probs_blocked(const HeadRows<T>& x, T* p, const T* m, int64_t Tq, int64_t Tk, int64_t tkp, bool causal,
+                        T scale, HeadScratch<T>& sc) {
   constexpr int L = Vec<T>::L;
   transpose_padded<T, D>(sc.xt, tkp, x.k, x.ldk, Tk);
   row_sums_nv<T>(int(tkp / L), sc.scores, tkp, x.q, x.ldq, 1, sc.xt, tkp, Tq, D, scale);  // S = scale Q K^T
@@ -281,7 +298,25 @@ void head_forward_blocked(T* o, const HeadRows<T>& x, T* p, const T* m, int64_t 
     const T* sr = sc.scores + i * tkp;
     softmax_row(pr, sr, m, causal ? i + 1 : Tk, Tk);  // a row without visible keys gives p = 0, so o = 0
   }
+}
+
+// head_forward for a head served by the register-blocked path.
+template <typename T, int D>
+void head_forward_blocked(T* o, const HeadRows<T>& x, T* p, const T* m, int64_t Tq, int64_t Tk, int64_t tkp,
+                          bool causal, T scale, HeadScratch<T>& sc) {
+  constexpr int L = Vec<T>::L;
+  head_probs_blocked<T, D>(x, p, m, Tq, Tk, tkp, causal, scale, sc);
   row_sums<T, D / L>(o, x.ldo, p, Tk, 1, x.v, x.ldv, Tq, Tk, (T)1);  // O = P V (hidden keys have p = 0)
+}
+
+// From dP (Tq rows of ds, row stride tkp, overwritten with dS) to dq and dk on the register-blocked path.
+template <typename T, int D>
+void head_grads_from_dp_blocked(const HeadGradRows<T>& gr, const HeadRows<T>& x, const T* p, T* ds, int64_t Tq,
+                                int64_t Tk, int64_t tkp, T scale) {
+  constexpr int L = Vec<T>::L;
+  for (int64_t i = 0; i < Tq; ++i) softmax_grad_row(ds + i * tkp, p + i * Tk, Tk, scale);
+  if (gr.dq) row_sums<T, D / L>(gr.dq, gr.ldq, ds, tkp, 1, x.k, x.ldk, Tq, Tk, (T)1);  // dQ = dS K
+  if (gr.dk) row_sums<T, D / L>(gr.dk, gr.ldk, ds, 1, tkp, x.q, x.ldq, Tk, Tq, (T)1);  // dK = dS^T Q
 }
 
 // head_backward for a head served by the register-blocked path.
@@ -294,9 +329,7 @@ void head_backward_blocked(const HeadGradRows<T>& gr, const HeadRows<T>& x, cons
   T* ds = sc.scores;
   transpose_padded<T, D>(sc.xt, tkp, x.v, x.ldv, Tk);
   row_sums_nv<T>(int(tkp / L), ds, tkp, x.o, x.ldo, 1, sc.xt, tkp, Tq, D, (T)1);  // dP = dO V^T
-  for (int64_t i = 0; i < Tq; ++i) softmax_grad_row(ds + i * tkp, p + i * Tk, Tk, scale);
-  if (gr.dq) row_sums<T, D / L>(gr.dq, gr.ldq, ds, tkp, 1, x.k, x.ldk, Tq, Tk, (T)1);  // dQ = dS K
-  if (gr.dk) row_sums<T, D / L>(gr.dk, gr.ldk, ds, 1, tkp, x.q, x.ldq, Tk, Tq, (T)1);  // dK = dS^T Q
+  head_grads_from_dp_blocked<T, D>(gr, x, p, ds, Tq, Tk, tkp, scale);
 }
 
 // One head on the register-blocked path when it serves it (tkp > 0), else on the dot/axpy loops.
@@ -315,6 +348,29 @@ void head_backward_any(const HeadGradRows<T>& gr, const HeadRows<T>& x, const T*
     if (tkp > 0) return head_backward_blocked<T, D>(gr, x, p, Tq, Tk, tkp, scale, sc);
   }
   head_backward<T, D>(gr, x, p, Tq, Tk, d, scale, sc.scores);
+}
+
+// The probabilities alone (head_forward_any without O = P V), and the backward from a given dP: for callers whose
+// values are not per-head rows (attention_ctx.h). dP is in ds with row stride ds_stride<T, D>(Tk, tkp).
+template <typename T, int D>
+void head_probs_any(const HeadRows<T>& x, T* p, const T* m, int64_t Tq, int64_t Tk, int64_t d, int64_t tkp,
+                    bool causal, T scale, HeadScratch<T>& sc) {
+  if constexpr (D > 0) {
+    if (tkp > 0) return head_probs_blocked<T, D>(x, p, m, Tq, Tk, tkp, causal, scale, sc);
+  }
+  head_probs(x, p, m, Tq, Tk, d, causal, scale);
+}
+template <typename T, int D>
+constexpr int64_t ds_stride(int64_t Tk, int64_t tkp) {
+  return D > 0 && tkp > 0 ? tkp : Tk;
+}
+template <typename T, int D>
+void head_grads_from_dp_any(const HeadGradRows<T>& gr, const HeadRows<T>& x, const T* p, T* ds, int64_t Tq,
+                            int64_t Tk, int64_t d, int64_t tkp, T scale) {
+  if constexpr (D > 0) {
+    if (tkp > 0) return head_grads_from_dp_blocked<T, D>(gr, x, p, ds, Tq, Tk, tkp, scale);
+  }
+  head_grads_from_dp<T, D>(gr, x, p, ds, Tq, Tk, d, scale);
 }
 
 // Calls f.template operator()<D>() with D the compile-time head dim for the common sizes, else D = 0.

@@ -1,0 +1,235 @@
+// attention_ctx_kernels.h — INTERNAL to tensor/fused/attention_ctx*.cpp: the loops of attention_ctx.h, included by
+// attention_ctx.cpp (baseline AVX2 build) and attention_ctx_avx512.cpp (AVX-512 flags); anonymous namespace, so each
+// file gets its own copy for its own ISA (as attention_small_kernels.h, whose per-head pieces it reuses).
+// Forward per head: P (head_probs_any), U = P ctx_b (wide_row_sums: the context rows read in place, no packing).
+// Backward per batch row b: per head dP = dU ctx_b^T (dot products of length C, register-blocked), the softmax and
+// QK-norm backward (head_grads_from_dp_any, qk_rows_backward); then dctx_b = sum over (h, t) of P[h, t, :]^T dU[h, t]
+// in one pass (wide_row_sums over the heads' rows).
+#pragma once
+#include "tensor/fused/attention_ctx.h"
+#include "tensor/fused/attention_small_kernels.h"
+
+namespace t2m::fused {
+namespace {
+
+// Rows u < RB of out (row stride ldo), NV vectors wide: out[u] = sum over g < ng, i < ni (in that order) of
+// w[u * wr + (g * ni + i) * wm] * X[g * xg + i * ldx] (X rows NV vectors wide, in ng groups of ni rows).
+template <typename T, int NV, int RB>
+inline void wide_block(T* out, int64_t ldo, const T* w, int64_t wr, int64_t wm, const T* X, int64_t ldx, int64_t xg,
+                       int64_t ni, int64_t ng) {
+  using VT = Vec<T>;
+  using V = typename VT::V;
+  constexpr int L = VT::L;
+  V acc[RB][NV];
+#pragma GCC unroll 16
+  for (int u = 0; u < RB; ++u)
+#pragma GCC unroll 4
+    for (int v = 0; v < NV; ++v) acc[u][v] = V{};
+  for (int64_t g = 0; g < ng; ++g) {
+    const T* Xg = X + g * xg;
+    const T* wg = w + g * ni * wm;
+    for (int64_t i = 0; i < ni; ++i) {
+      V x[NV];
+#pragma GCC unroll 4
+      for (int v = 0; v < NV; ++v) x[v] = VT::load(Xg + i * ldx + v * L);
+#pragma GCC unroll 16
+      for (int u = 0; u < RB; ++u) {
+        const V a = VT::set1(wg[u * wr + i * wm]);
+#pragma GCC unroll 4
+        for (int v = 0; v < NV; ++v) acc[u][v] += a * x[v];
+      }
+    }
+  }
+#pragma GCC unroll 16
+  for (int u = 0; u < RB; ++u)
+#pragma GCC unroll 4
+    for (int v = 0; v < NV; ++v) VT::store(out + u * ldo + v * L, acc[u][v]);
+}
+
+// The same sum for one column of n_out rows (the columns past the last whole vector).
+template <typename T>
+inline void wide_column(T* out, int64_t ldo, const T* w, int64_t wr, int64_t wm, const T* X, int64_t ldx, int64_t xg,
+                        int64_t ni, int64_t ng, int64_t n_out) {
+  for (int64_t u = 0; u < n_out; ++u) {
+    T s = 0;
+    for (int64_t g = 0; g < ng; ++g)
+      for (int64_t i = 0; i < ni; ++i) s += w[u * wr + (g * ni + i) * wm] * X[g * xg + i * ldx];
+    out[u * ldo] = s;
+  }
+}
+
+// Accumulators of wide_block: 8 rows x 2 vectors in the 32 zmm registers, 4 x 2 in the 16 ymm registers.
+constexpr int kWideRows = kVecBytes == 64 ? 8 : 4;
+
+// All n_out rows and `width` columns of the wide_block sum: column chunks of two vectors (then one, then single
+// columns), each chunk's rows in blocks of kWideRows (then single rows), so a chunk's X rows stay in L1.
+template <typename T>
+void wide_row_sums(T* out, int64_t ldo, const T* w, int64_t wr, int64_t wm, const T* X, int64_t ldx, int64_t xg,
+                   int64_t ni, int64_t ng, int64_t n_out, int64_t width) {
+  constexpr int L = Vec<T>::L;
+  auto chunk = [&]<int NV>(int64_t c) {
+    int64_t r = 0;
+    for (; r + kWideRows <= n_out; r += kWideRows)
+      wide_block<T, NV, kWideRows>(out + r * ldo + c, ldo, w + r * wr, wr, wm, X + c, ldx, xg, ni, ng);
+    for (; r < n_out; ++r) wide_block<T, NV, 1>(out + r * ldo + c, ldo, w + r * wr, wr, wm, X + c, ldx, xg, ni, ng);
+  };
+  int64_t c = 0;
+  for (; c + 2 * L <= width; c += 2 * L) chunk.template operator()<2>(c);
+  for (; c + L <= width; c += L) chunk.template operator()<1>(c);
+  for (; c < width; ++c) wide_column(out + c, ldo, w, wr, wm, X + c, ldx, xg, ni, ng, n_out);
+}
+
+// out[i * ldo + j] = dot(A row i, B row j) over n for i < RT, j < RS: RT x RS vector accumulators, then each summed
+// across its lanes, then the scalar tail.
+template <typename T, int RT, int RS>
+inline void dots_block(T* out, int64_t ldo, const T* A, int64_t lda, const T* Bm, int64_t ldb, int64_t n) {
+  using VT = Vec<T>;
+  using V = typename VT::V;
+  constexpr int L = VT::L;
+  V acc[RT][RS];
+#pragma GCC unroll 4
+  for (int i = 0; i < RT; ++i)
+#pragma GCC unroll 4
+    for (int j = 0; j < RS; ++j) acc[i][j] = V{};
+  int64_t c = 0;
+  for (; c + L <= n; c += L) {
+    V a[RT], b[RS];
+#pragma GCC unroll 4
+    for (int i = 0; i < RT; ++i) a[i] = VT::load(A + i * lda + c);
+#pragma GCC unroll 4
+    for (int j = 0; j < RS; ++j) b[j] = VT::load(Bm + j * ldb + c);
+#pragma GCC unroll 4
+    for (int i = 0; i < RT; ++i)
+#pragma GCC unroll 4
+      for (int j = 0; j < RS; ++j) acc[i][j] += a[i] * b[j];
+  }
+  for (int i = 0; i < RT; ++i)
+    for (int j = 0; j < RS; ++j) {
+      T s = 0;
+      for (int l = 0; l < L; ++l) s += acc[i][j][l];
+      for (int64_t r = c; r < n; ++r) s += A[i * lda + r] * Bm[j * ldb + r];
+      out[i * ldo + j] = s;
+    }
+}
+
+// out (na x nb, row stride ldo) = A (na rows, lda) B^T (nb rows, ldb) over n columns: blocks of 4x4 dot products
+// (2x4 in the 16 ymm registers), single rows and columns at the edges.
+template <typename T>
+void dots_matrix(T* out, int64_t ldo, const T* A, int64_t lda, int64_t na, const T* Bm, int64_t ldb, int64_t nb,
+                 int64_t n) {
+  constexpr int RT = kVecBytes == 64 ? 4 : 2, RS = 4;
+  auto row_block = [&]<int R>(int64_t i) {
+    int64_t j = 0;
+    for (; j + RS <= nb; j += RS)
+      dots_block<T, R, RS>(out + i * ldo + j, ldo, A + i * lda, lda, Bm + j * ldb, ldb, n);
+    for (; j < nb; ++j) dots_block<T, R, 1>(out + i * ldo + j, ldo, A + i * lda, lda, Bm + j * ldb, ldb, n);
+  };
+  int64_t i = 0;
+  for (; i + RT <= na; i += RT) row_block.template operator()<RT>(i);
+  for (; i < na; ++i) row_block.template operator()<1>(i);
+}
+
+template <typename T>
+void ctx_forward_all(T* u, T* att, T* rstd_q, T* rstd_k, const AttentionHeads<T>& a, const T* ctx, int64_t C) {
+  const AttentionShape& s = a.s;
+  const int64_t B = s.B, H = s.H, BH = s.B * s.H, Tq = s.Tq, Tk = s.Tk, d = s.d;
+  const bool through_scratch = a.q_norm || a.cos_tab;
+  const T scale = (T)(1.0 / std::sqrt((double)d));
+  const int nt = fused_threads(BH * Tq * Tk * (d + C));
+  with_head_dim(d, [&]<int D>() {
+    const int64_t tkp = padded_keys<T, D>(Tq, Tk);
+#pragma omp parallel num_threads(nt) if (nt > 1)
+    {
+      HeadScratch<T> sc;
+      T* qs = through_scratch ? fused_scratch<T>(3, (Tq + Tk) * d) : nullptr;
+#pragma omp for schedule(static)
+      for (int64_t bh = 0; bh < BH; ++bh) {
+        const int64_t b = bh / H, h = bh % H;
+        T* p = att + bh * Tq * Tk;
+        HeadRows<T> x{a.q + b * Tq * a.ldq + h * d, a.k + b * Tk * a.ldk + h * d, nullptr, nullptr, a.ldq, a.ldk, 0,
+                      0};
+        if (through_scratch) {
+          T* ks = qs + Tq * d;
+          qk_rows_forward(qs, x.q, x.ldq, Tq, d, a.q_norm, a.norm_eps, rstd_q ? rstd_q + bh * Tq : nullptr,
+                          a.cos_tab, a.sin_tab);
+          qk_rows_forward(ks, x.k, x.ldk, Tk, d, a.k_norm, a.norm_eps, rstd_k ? rstd_k + bh * Tk : nullptr,
+                          a.cos_tab, a.sin_tab);
+          x.q = qs, x.k = ks, x.ldq = x.ldk = d;
+        }
+        head_probs_any<T, D>(x, p, a.key_mask ? a.key_mask + b * Tk : nullptr, Tq, Tk, d, tkp, s.causal, scale, sc);
+        // U[h, b] (Tq x C) = P ctx_b
+        wide_row_sums(u + (h * B + b) * Tq * C, C, p, Tk, 1, ctx + b * Tk * C, C, 0, Tk, 1, Tq, C);
+      }
+    }
+  });
+}
+
+template <typename T>
+void ctx_backward_all(T* dq, int64_t lddq, T* dk, int64_t lddk, T* dctx, T* dq_norm, T* dk_norm, const T* du,
+                      const T* att, const T* rstd_q, const T* rstd_k, const AttentionHeads<T>& a, const T* ctx,
+                      int64_t C) {
+  const AttentionShape& s = a.s;
+  const int64_t B = s.B, H = s.H, Tq = s.Tq, Tk = s.Tk, d = s.d;
+  const bool norm = a.q_norm != nullptr, through_scratch = norm || a.cos_tab;
+  const bool need_dq = dq || (norm && dq_norm), need_dk = dk || (norm && dk_norm);
+  const T scale = (T)(1.0 / std::sqrt((double)d));
+  const int nt = fused_threads(B * H * Tq * Tk * (d + C));
+  T* partial = norm && (dq_norm || dk_norm) ? fused_scratch<T>(0, (int64_t)nt * 2 * d) : nullptr;  // [u][q | k]
+  if (partial) std::memset(partial, 0, sizeof(T) * nt * 2 * d);
+  with_head_dim(d, [&]<int D>() {
+    const int64_t tkp = padded_keys<T, D>(Tq, Tk), ldds = ds_stride<T, D>(Tk, tkp);
+#pragma omp parallel num_threads(nt) if (nt > 1)
+    {
+      const int u = omp_get_thread_num();
+      const auto [b0, b1] = row_range(B, u, omp_get_num_threads());
+      HeadScratch<T> sc;  // scores: dP, then dS, of one head
+      T* qs = through_scratch ? fused_scratch<T>(3, (Tq + Tk) * d) : nullptr;      // q, k as the attention saw them
+      T* gs = through_scratch ? fused_scratch<T>(4, (Tq + Tk + 1) * d) : nullptr;  // their gradients, a spare row
+      T* pq = partial && dq_norm ? partial + (int64_t)u * 2 * d : nullptr;
+      T* pk = partial && dk_norm ? partial + (int64_t)u * 2 * d + d : nullptr;
+      for (int64_t b = b0; b < b1; ++b) {
+        const T* ctx_b = ctx + b * Tk * C;
+        for (int64_t h = 0; (need_dq || need_dk) && h < H; ++h) {
+          const int64_t bh = b * H + h;
+          const T* p = att + bh * Tq * Tk;
+          T* ds = sc.scores;
+          dots_matrix(ds, ldds, du + (h * B + b) * Tq * C, C, Tq, ctx_b, C, Tk, C);  // dP = dU ctx_b^T
+          const T* qx = a.q + b * Tq * a.ldq + h * d;
+          const T* kx = a.k + b * Tk * a.ldk + h * d;
+          T* dqh = dq ? dq + b * Tq * lddq + h * d : nullptr;
+          T* dkh = dk ? dk + b * Tk * lddk + h * d : nullptr;
+          HeadRows<T> x{qx, kx, nullptr, nullptr, a.ldq, a.ldk, 0, 0};
+          HeadGradRows<T> gr{dqh, dkh, nullptr, lddq, lddk, 0};
+          if (through_scratch) {
+            T* ks = qs + Tq * d;
+            qk_rows_forward(qs, qx, a.ldq, Tq, d, a.q_norm, a.norm_eps, (T*)nullptr, a.cos_tab, a.sin_tab);
+            qk_rows_forward(ks, kx, a.ldk, Tk, d, a.k_norm, a.norm_eps, (T*)nullptr, a.cos_tab, a.sin_tab);
+            x.q = qs, x.k = ks, x.ldq = x.ldk = d;
+            gr.dq = need_dq ? gs : nullptr, gr.dk = need_dk ? gs + Tq * d : nullptr, gr.ldq = gr.ldk = d;
+          }
+          head_grads_from_dp_any<T, D>(gr, x, p, ds, Tq, Tk, d, tkp, scale);
+          if (!through_scratch) continue;
+          T* spare = gs + (Tq + Tk) * d;
+          if (need_dq)
+            qk_rows_backward(dqh, lddq, pq, gr.dq, qx, a.ldq, Tq, d, a.q_norm, norm ? rstd_q + bh * Tq : nullptr,
+                             a.cos_tab, a.sin_tab, spare);
+          if (need_dk)
+            qk_rows_backward(dkh, lddk, pk, gr.dk, kx, a.ldk, Tk, d, a.k_norm, norm ? rstd_k + bh * Tk : nullptr,
+                             a.cos_tab, a.sin_tab, spare);
+        }
+        // dctx_b (Tk x C) = sum over heads h and queries t of P[b, h, t, :]^T dU[h, b, t]
+        if (dctx)
+          wide_row_sums(dctx + b * Tk * C, C, att + b * H * Tq * Tk, 1, Tk, du + b * Tq * C, C, B * Tq * C, Tq, H, Tk,
+                        C);
+      }
+    }
+  });
+  for (int u = 0; partial && u < nt; ++u)
+    for (int64_t c = 0; c < d; ++c) {
+      if (dq_norm) dq_norm[c] += partial[(int64_t)u * 2 * d + c];
+      if (dk_norm) dk_norm[c] += partial[(int64_t)u * 2 * d + d + c];
+    }
+}
+
+}  // namespace
+}  // namespace t2m::fused
