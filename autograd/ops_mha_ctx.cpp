@@ -1,7 +1,7 @@
 // ops_mha_ctx.cpp — forward/backward of mha_cross_ctx: GEMMs for K and the per-head value projection around the
 // fused per-head loops of tensor/fused/attention_ctx.h.
 // Forward:  K = ctx W_k^T + b_k | P, U = P ctx (fused) | o_h = U_h W_v,h^T (batched over heads) | o += r b_v.
-// Backward: dW_v,h = dO_h^T U_h | db_v = sum r dO | dU_h = dO_h W_v,h | fused: dP = dU ctx^T -> dq, dK (through
+// Backward: U = P ctx again | dW_v,h = dO_h^T U_h | db_v = sum r dO | dU_h = dO_h W_v,h | fused: dP = dU ctx^T -> dq, dK (through
 //           the softmax and QK-norm), dctx = sum_h P^T dU | dW_k = dK^T ctx | db_k = sum dK | dctx += dK W_k.
 #include "autograd/ops_mha_ctx.h"
 
@@ -24,7 +24,7 @@ struct Saved {
   int64_t C = 0;
   bool norm = false, bias = false;
   double eps = 1e-6;
-  Tensor q, ctx, w, k, att, u, rows;  // rows: (B, H, Tq) sums of the probabilities
+  Tensor q, ctx, w, k, att, rows;  // rows: (B, H, Tq) sums of the probabilities (U is recomputed: not kept)
   Tensor rstd_q, rstd_k, qn_w, kn_w;
 };
 
@@ -50,13 +50,13 @@ Tensor forward_impl(Saved& sv, const Tensor& bias, const Tensor& mask) {
   gemm_bias(false, true, B * Tk, D, C, (T)1, sv.ctx.data<T>(), C, w, C, bias.defined() ? bias.data<T>() : nullptr,
             sv.k.data<T>(), D);
   sv.att = Tensor::empty({B, H, Tq, Tk}, dt);
-  sv.u = Tensor::empty({H, B, Tq, C}, dt);
+  Tensor u = Tensor::empty({H, B, Tq, C}, dt);  // freed at the end of the forward
   if (sv.norm) sv.rstd_q = Tensor::empty({B * H * Tq}, dt), sv.rstd_k = Tensor::empty({B * H * Tk}, dt);
-  fused::attention_ctx_forward<T>(sv.u.data<T>(), sv.att.data<T>(), sv.norm ? sv.rstd_q.data<T>() : nullptr,
+  fused::attention_ctx_forward<T>(u.data<T>(), sv.att.data<T>(), sv.norm ? sv.rstd_q.data<T>() : nullptr,
                                   sv.norm ? sv.rstd_k.data<T>() : nullptr,
                                   heads_of<T>(sv, mask.defined() ? mask.data<T>() : nullptr), sv.ctx.data<T>(), C);
   Tensor out = Tensor::empty({B, Tq, D}, dt);  // o_h = U_h W_v,h^T: rows (b, t), head h's d columns
-  gemm_batched(false, true, H, B * Tq, d, C, (T)1, sv.u.data<T>(), C, B * Tq * C, w + D * C, C, d * C, (T)0,
+  gemm_batched(false, true, H, B * Tq, d, C, (T)1, u.data<T>(), C, B * Tq * C, w + D * C, C, d * C, (T)0,
                out.data<T>(), D, d);
   sv.rows = Tensor::empty({B, H, Tq}, dt);
   const T* p = sv.att.data<T>();
@@ -92,9 +92,12 @@ void backward_impl(const Saved& sv, const Tensor& g, Grads& o) {
   const T* w = sv.w.data<T>();
   const T* go = g.data<T>();
   auto ptr = [](Tensor& t) { return t.defined() ? t.data<T>() : nullptr; };
-  if (o.dw.defined())  // dW_v,h (d x C) = dO_h^T U_h
-    gemm_batched(true, false, H, d, C, B * Tq, (T)1, go, D, d, sv.u.data<T>(), C, B * Tq * C, (T)0,
+  if (o.dw.defined()) {  // dW_v,h (d x C) = dO_h^T U_h, U = P ctx recomputed (the forward's bits)
+    Tensor u = Tensor::empty({H, B, Tq, C}, dt);
+    fused::attention_ctx_values<T>(u.data<T>(), sv.att.data<T>(), s, sv.ctx.data<T>(), C);
+    gemm_batched(true, false, H, d, C, B * Tq, (T)1, go, D, d, u.data<T>(), C, B * Tq * C, (T)0,
                  o.dw.data<T>() + D * C, C, d * C);
+  }
   if (o.db.defined()) {  // db_v = sum over (b, t) of r dO
     T* dbv = o.db.data<T>() + D;
     const T* r = sv.rows.data<T>();

@@ -11,7 +11,9 @@
 // q (B, Tq, D) with D = H*d; ctx (B, Tk, C); kv_weight (2D, C) and kv_bias (2D) or undefined, as the kv Linear of
 // nn::MultiheadAttention holds them; q_norm/k_norm (d) both or neither; key_mask (B, Tk) or undefined, nonzero =
 // visible. Output (B, Tq, D): the merged heads, before the output projection. Gradients of all six inputs.
-// Saved for the backward: q, ctx, the weight, K, the probabilities, U (H, B, Tq, C) and the rows' probability sums.
+// Saved for the backward: q, ctx, the weight, K, the probabilities and their row sums; U (H, B, Tq, C), 4x the
+// size of K at fm-paper Tm 8, is recomputed from them (~8 % of the block's forward multiply-adds) rather than kept,
+// so that peak memory stays below the K/V-projection form's.
 // Errors (t2m::Error, message starts "mha_cross_ctx:" and names the shapes): wrong ranks or sizes, dtype mismatch,
 // a shape the fused heads path does not serve (mha_cross_ctx_serves), rope or causal options.
 #pragma once

@@ -61,6 +61,22 @@ void attention_ctx_forward(T* u, T* att, T* rstd_q, T* rstd_k, const AttentionHe
 }
 
 template <typename T>
+void attention_ctx_values(T* u, const T* att, const AttentionShape& s, const T* ctx, int64_t C) {
+  const char* op = "attention_ctx_values";
+  check_dim(op, "B", s.B, 0);
+  check_dim(op, "H", s.H, 1);
+  check_dim(op, "Tq", s.Tq, 1);
+  check_dim(op, "Tk", s.Tk, 1);
+  check_dim(op, "C", C, 1);
+  if (s.B == 0) return;
+  check_ptr(op, "u", u);
+  check_ptr(op, "att", att);
+  check_ptr(op, "ctx", ctx);
+  if (use_avx512_kernels()) return attention_ctx_values_avx512(u, att, s, ctx, C);
+  ctx_values_all(u, att, s, ctx, C);
+}
+
+template <typename T>
 void attention_ctx_backward(T* dq, int64_t lddq, T* dk, int64_t lddk, T* dctx, T* dq_norm, T* dk_norm, const T* du,
                             const T* att, const T* rstd_q, const T* rstd_k, const AttentionHeads<T>& a, const T* ctx,
                             int64_t C) {
@@ -86,6 +102,7 @@ void attention_ctx_backward(T* dq, int64_t lddq, T* dk, int64_t lddk, T* dctx, T
 
 #define T2M_CTX_INSTANTIATE(T)                                                                                     \
   template void attention_ctx_forward<T>(T*, T*, T*, T*, const AttentionHeads<T>&, const T*, int64_t);            \
+  template void attention_ctx_values<T>(T*, const T*, const AttentionShape&, const T*, int64_t);                   \
   template void attention_ctx_backward<T>(T*, int64_t, T*, int64_t, T*, T*, T*, const T*, const T*, const T*,      \
                                           const T*, const AttentionHeads<T>&, const T*, int64_t);
 T2M_CTX_INSTANTIATE(float)

@@ -26,6 +26,11 @@ namespace t2m::fused {
 template <typename T>
 void attention_ctx_forward(T* u, T* att, T* rstd_q, T* rstd_k, const AttentionHeads<T>& a, const T* ctx, int64_t C);
 
+// u (H, B, Tq, C) = P ctx again from the forward's probabilities att (the same bits as attention_ctx_forward's u):
+// the backward recomputes it rather than the forward keeping it (at fm-paper B256 Tm8 it is 64 MB per layer).
+template <typename T>
+void attention_ctx_values(T* u, const T* att, const AttentionShape& s, const T* ctx, int64_t C);
+
 // du (H, B, Tq, C) -> written (=): dq (B, Tq, lddq), dk (B, Tk, lddk) at the heads' columns and dctx (B, Tk, C) =
 // sum_h P^T du (the context's gradient through the weighted sum only); any may be null. Accumulated (+=): dq_norm,
 // dk_norm (d), may be null.
@@ -38,6 +43,8 @@ void attention_ctx_backward(T* dq, int64_t lddq, T* dk, int64_t lddk, T* dctx, T
 template <typename T>
 void attention_ctx_forward_avx512(T* u, T* att, T* rstd_q, T* rstd_k, const AttentionHeads<T>& a, const T* ctx,
                                   int64_t C);
+template <typename T>
+void attention_ctx_values_avx512(T* u, const T* att, const AttentionShape& s, const T* ctx, int64_t C);
 template <typename T>
 void attention_ctx_backward_avx512(T* dq, int64_t lddq, T* dk, int64_t lddk, T* dctx, T* dq_norm, T* dk_norm,
                                    const T* du, const T* att, const T* rstd_q, const T* rstd_k,

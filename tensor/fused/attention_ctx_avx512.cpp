@@ -12,6 +12,11 @@ void attention_ctx_forward_avx512(T* u, T* att, T* rstd_q, T* rstd_k, const Atte
 }
 
 template <typename T>
+void attention_ctx_values_avx512(T* u, const T* att, const AttentionShape& s, const T* ctx, int64_t C) {
+  ctx_values_all(u, att, s, ctx, C);
+}
+
+template <typename T>
 void attention_ctx_backward_avx512(T* dq, int64_t lddq, T* dk, int64_t lddk, T* dctx, T* dq_norm, T* dk_norm,
                                    const T* du, const T* att, const T* rstd_q, const T* rstd_k,
                                    const AttentionHeads<T>& a, const T* ctx, int64_t C) {
@@ -20,6 +25,7 @@ void attention_ctx_backward_avx512(T* dq, int64_t lddq, T* dk, int64_t lddk, T* 
 
 #define T2M_CTX_INSTANTIATE(T)                                                                                     \
   template void attention_ctx_forward_avx512<T>(T*, T*, T*, T*, const AttentionHeads<T>&, const T*, int64_t);     \
+  template void attention_ctx_values_avx512<T>(T*, const T*, const AttentionShape&, const T*, int64_t);           \
   template void attention_ctx_backward_avx512<T>(T*, int64_t, T*, int64_t, T*, T*, T*, const T*, const T*,        \
                                                  const T*, const T*, const AttentionHeads<T>&, const T*, int64_t);
 T2M_CTX_INSTANTIATE(float)

@@ -1,7 +1,8 @@
 // attention_ctx_kernels.h — INTERNAL to tensor/fused/attention_ctx*.cpp: the loops of attention_ctx.h, included by
 // attention_ctx.cpp (baseline AVX2 build) and attention_ctx_avx512.cpp (AVX-512 flags); anonymous namespace, so each
 // file gets its own copy for its own ISA (as attention_small_kernels.h, whose per-head pieces it reuses).
-// Forward per head: P (head_probs_any), U = P ctx_b (wide_row_sums: the context rows read in place, no packing).
+// Forward per head: P (head_probs_any), U = P ctx_b (wide_row_sums: the context rows read in place, no packing);
+// ctx_values_all repeats the second part from the saved P.
 // Backward per batch row b: per head dP = dU ctx_b^T (dot products of length C, register-blocked), the softmax and
 // QK-norm backward (head_grads_from_dp_any, qk_rows_backward); then dctx_b = sum over (h, t) of P[h, t, :]^T dU[h, t]
 // in one pass (wide_row_sums over the heads' rows).
@@ -162,6 +163,17 @@ void ctx_forward_all(T* u, T* att, T* rstd_q, T* rstd_k, const AttentionHeads<T>
       }
     }
   });
+}
+
+template <typename T>
+void ctx_values_all(T* u, const T* att, const AttentionShape& s, const T* ctx, int64_t C) {
+  const int64_t B = s.B, H = s.H, BH = s.B * s.H, Tq = s.Tq, Tk = s.Tk;
+  const int nt = fused_threads(BH * Tq * Tk * C);
+#pragma omp parallel for num_threads(nt) schedule(static) if (nt > 1)
+  for (int64_t bh = 0; bh < BH; ++bh) {
+    const int64_t b = bh / H, h = bh % H;
+    wide_row_sums(u + (h * B + b) * Tq * C, C, att + bh * Tq * Tk, Tk, 1, ctx + b * Tk * C, C, 0, Tk, 1, Tq, C);
+  }
 }
 
 template <typename T>
