@@ -14,14 +14,10 @@
 #include "test_tensor_util.h"
 
 using namespace t2m;
+using t2m::testing::randn;
 using t2m::testing::expect_error;
 
 namespace {
-
-Tensor randn(const Shape& s, uint64_t seed, DType dt = DType::f64) {
-  Generator g(seed);
-  return rand_normal(s, g, 0.0, 1.0, dt);
-}
 
 // Naive softmax(q k^T / sqrt d) v with a key mask and a causal flag, per (b, h, i); all in double.
 Tensor naive_attention(const Tensor& q, const Tensor& k, const Tensor& v, const Tensor& mask, bool causal) {

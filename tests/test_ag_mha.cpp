@@ -22,14 +22,10 @@
 #include "test_tensor_util.h"
 
 using namespace t2m;
+using t2m::testing::randn;
 using t2m::testing::expect_error;
 
 namespace {
-
-Tensor randn(const Shape& s, uint64_t seed, DType dt = DType::f64) {
-  Generator g(seed);
-  return rand_normal(s, g, 0.0, 1.0, dt);
-}
 
 ag::Variable rms(const ag::Variable& x, const ag::Variable& w, double eps) {
   return x * ag::rsqrt(ag::mean(ag::square(x), {-1}, true) + eps) * w;

@@ -21,14 +21,10 @@
 #include "test_tensor_util.h"
 
 using namespace t2m;
+using t2m::testing::randn;
 using t2m::testing::expect_error;
 
 namespace {
-
-Tensor randn(const Shape& s, uint64_t seed, DType dt = DType::f64) {
-  Generator g(seed);
-  return rand_normal(s, g, 0.0, 1.0, dt);
-}
 
 // Batch b hides its last b keys; with `empty_row`, batch row 1 hides every key.
 Tensor mask_of(int64_t B, int64_t Tk, bool empty_row) {

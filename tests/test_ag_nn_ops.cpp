@@ -19,14 +19,10 @@
 #include "test_tensor_util.h"
 
 using namespace t2m;
+using t2m::testing::randn;
 using t2m::testing::expect_error;
 
 namespace {
-
-Tensor randn(const Shape& s, uint64_t seed, DType dt = DType::f64) {
-  Generator g(seed);
-  return rand_normal(s, g, 0.0, 1.0, dt);
-}
 
 void expect_gradcheck(const ag::GradcheckFn& f, const std::vector<Tensor>& in) {
   ag::GradcheckResult r = ag::gradcheck(f, in);

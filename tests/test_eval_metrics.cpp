@@ -16,15 +16,11 @@
 #include "test_tensor_util.h"
 
 using namespace t2m;
+using t2m::testing::randn;
 using namespace t2m::eval;
 using t2m::testing::expect_error;
 
 namespace {
-
-Tensor randn(Shape s, uint64_t seed, DType dt = DType::f64) {
-  Generator g(seed);
-  return rand_normal(s, g, 0.0, 1.0, dt);
-}
 
 double naive_dist(const Tensor& a, int64_t i, const Tensor& b, int64_t j) {
   double s = 0;

@@ -11,15 +11,11 @@
 #include "test_tensor_util.h"
 
 using namespace t2m;
+using t2m::testing::randn;
 using namespace t2m::eval;
 using t2m::testing::expect_error;
 
 namespace {
-
-Tensor randn(Shape s, uint64_t seed) {
-  Generator g(seed);
-  return rand_normal(s, g, 0.0, 1.0, DType::f64);
-}
 
 }  // namespace
 

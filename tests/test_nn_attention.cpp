@@ -15,14 +15,10 @@
 #include "test_tensor_util.h"
 
 using namespace t2m;
+using t2m::testing::randn;
 using t2m::testing::expect_error;
 
 namespace {
-
-Tensor randn(const Shape& s, uint64_t seed, DType dt = DType::f64) {
-  Generator g(seed);
-  return rand_normal(s, g, 0.0, 1.0, dt);
-}
 
 // Central differences of L = sum(f() * W) w.r.t. every element of every tensor in `wrt` (module parameters and
 // inputs, float64), compared with the gradients backward() leaves in `grads_of`.

@@ -22,14 +22,10 @@
 #include "test_tensor_util.h"
 
 using namespace t2m;
+using t2m::testing::randn;
 using t2m::testing::expect_error;
 
 namespace {
-
-Tensor randn(const Shape& s, uint64_t seed, DType dt = DType::f64) {
-  Generator g(seed);
-  return rand_normal(s, g, 0.0, 1.0, dt);
-}
 
 std::vector<std::string> names_of(const nn::Module& m) {
   std::vector<std::string> r;

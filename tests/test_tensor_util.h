@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "tensor/ops.h"
+#include "tensor/rng.h"
 #include "tensor/tensor.h"
 
 namespace t2m::testing {
@@ -71,6 +72,12 @@ inline std::vector<double> raw_values(const Tensor& t) {
   std::vector<double> v;
   for_each_index(t.shape(), [&](const std::vector<int64_t>& i) { v.push_back(raw_get(t, i)); });
   return v;
+}
+
+// N(0, 1) samples from t2m's own Generator seeded with `seed` (model-style test data).
+inline Tensor randn(const Shape& shape, uint64_t seed, DType dt = DType::f64) {
+  Generator g(seed);
+  return rand_normal(shape, g, 0.0, 1.0, dt);
 }
 
 // A contiguous tensor with values uniform in [lo, hi) from std::mt19937 (independent of t2m's RNG).

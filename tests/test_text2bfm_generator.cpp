@@ -18,15 +18,11 @@
 #include "test_tensor_util.h"
 
 using namespace t2m;
+using t2m::testing::randn;
 using namespace t2m::text2bfm;
 using t2m::testing::expect_error;
 
 namespace {
-
-Tensor randn(const Shape& s, uint64_t seed, DType dt = DType::f64) {
-  Generator g(seed);
-  return rand_normal(s, g, 0.0, 1.0, dt);
-}
 
 double max_diff(const Tensor& a, const Tensor& b) { return amax(abs(sub(a.to(DType::f64), b.to(DType::f64)))).item(); }
 

@@ -13,41 +13,8 @@
 namespace t2m::fused {
 namespace {
 
-// Rows u < RB of out (row stride ldo), NV vectors wide: out[u] = sum over g < ng, i < ni (in that order) of
-// w[u * wr + (g * ni + i) * wm] * X[g * xg + i * ldx] (X rows NV vectors wide, in ng groups of ni rows).
-template <typename T, int NV, int RB>
-inline void wide_block(T* out, int64_t ldo, const T* w, int64_t wr, int64_t wm, const T* X, int64_t ldx, int64_t xg,
-                       int64_t ni, int64_t ng) {
-  using VT = Vec<T>;
-  using V = typename VT::V;
-  constexpr int L = VT::L;
-  V acc[RB][NV];
-#pragma GCC unroll 16
-  for (int u = 0; u < RB; ++u)
-#pragma GCC unroll 4
-    for (int v = 0; v < NV; ++v) acc[u][v] = V{};
-  for (int64_t g = 0; g < ng; ++g) {
-    const T* Xg = X + g * xg;
-    const T* wg = w + g * ni * wm;
-    for (int64_t i = 0; i < ni; ++i) {
-      V x[NV];
-#pragma GCC unroll 4
-      for (int v = 0; v < NV; ++v) x[v] = VT::load(Xg + i * ldx + v * L);
-#pragma GCC unroll 16
-      for (int u = 0; u < RB; ++u) {
-        const V a = VT::set1(wg[u * wr + i * wm]);
-#pragma GCC unroll 4
-        for (int v = 0; v < NV; ++v) acc[u][v] += a * x[v];
-      }
-    }
-  }
-#pragma GCC unroll 16
-  for (int u = 0; u < RB; ++u)
-#pragma GCC unroll 4
-    for (int v = 0; v < NV; ++v) VT::store(out + u * ldo + v * L, acc[u][v]);
-}
-
-// The same sum for one column of n_out rows (the columns past the last whole vector).
+// The grouped row sum of row_sums_block (attention_small_kernels.h) for one column of n_out rows (the columns past
+// the last whole vector).
 template <typename T>
 inline void wide_column(T* out, int64_t ldo, const T* w, int64_t wr, int64_t wm, const T* X, int64_t ldx, int64_t xg,
                         int64_t ni, int64_t ng, int64_t n_out) {
@@ -59,11 +26,12 @@ inline void wide_column(T* out, int64_t ldo, const T* w, int64_t wr, int64_t wm,
   }
 }
 
-// Accumulators of wide_block: 8 rows x 2 vectors in the 32 zmm registers, 4 x 2 in the 16 ymm registers.
+// Accumulators of a wide_row_sums block: 8 rows x 2 vectors in the 32 zmm registers, 4 x 2 in the 16 ymm registers.
 constexpr int kWideRows = kVecBytes == 64 ? 8 : 4;
 
-// All n_out rows and `width` columns of the wide_block sum: column chunks of two vectors (then one, then single
-// columns), each chunk's rows in blocks of kWideRows (then single rows), so a chunk's X rows stay in L1.
+// All n_out rows and `width` columns of row_sums_block's grouped sum (scale 1): column chunks of two vectors (then
+// one, then single columns), each chunk's rows in blocks of kWideRows (then single rows), so a chunk's X rows stay
+// in L1.
 template <typename T>
 void wide_row_sums(T* out, int64_t ldo, const T* w, int64_t wr, int64_t wm, const T* X, int64_t ldx, int64_t xg,
                    int64_t ni, int64_t ng, int64_t n_out, int64_t width) {
@@ -71,8 +39,9 @@ void wide_row_sums(T* out, int64_t ldo, const T* w, int64_t wr, int64_t wm, cons
   auto chunk = [&]<int NV>(int64_t c) {
     int64_t r = 0;
     for (; r + kWideRows <= n_out; r += kWideRows)
-      wide_block<T, NV, kWideRows>(out + r * ldo + c, ldo, w + r * wr, wr, wm, X + c, ldx, xg, ni, ng);
-    for (; r < n_out; ++r) wide_block<T, NV, 1>(out + r * ldo + c, ldo, w + r * wr, wr, wm, X + c, ldx, xg, ni, ng);
+      row_sums_block<T, NV, kWideRows>(out + r * ldo + c, ldo, w + r * wr, wr, wm, X + c, ldx, ni, (T)1, xg, ng);
+    for (; r < n_out; ++r)
+      row_sums_block<T, NV, 1>(out + r * ldo + c, ldo, w + r * wr, wr, wm, X + c, ldx, ni, (T)1, xg, ng);
   };
   int64_t c = 0;
   for (; c + 2 * L <= width; c += 2 * L) chunk.template operator()<2>(c);

@@ -49,11 +49,12 @@ struct Vec {
   static V set1(T x) { return V{} + x; }
 };
 
-// Rows r < RB of out (row stride ldo, NV vectors wide) = scale * sum_{m < n_in} w[r * wr + m * wm] X[m] (X rows NV
-// vectors wide, row stride ldx): RB x NV accumulators in registers, one FMA chain per element in m order.
+// Rows r < RB of out (row stride ldo, NV vectors wide) = scale * sum over g < ng, m < n_in (in that order) of
+// w[r * wr + (g * n_in + m) * wm] X[g * xg + m * ldx]: X rows NV vectors wide (row stride ldx), in ng groups of n_in
+// rows xg apart (one group unless said). RB x NV accumulators in registers, one FMA chain per element.
 template <typename T, int NV, int RB>
 inline void row_sums_block(T* out, int64_t ldo, const T* w, int64_t wr, int64_t wm, const T* X, int64_t ldx,
-                           int64_t n_in, T scale) {
+                           int64_t n_in, T scale, int64_t xg = 0, int64_t ng = 1) {
   using VT = Vec<T>;
   using V = typename VT::V;
   constexpr int L = VT::L;
@@ -62,15 +63,19 @@ inline void row_sums_block(T* out, int64_t ldo, const T* w, int64_t wr, int64_t 
   for (int u = 0; u < RB; ++u)
 #pragma GCC unroll 8
     for (int v = 0; v < NV; ++v) acc[u][v] = V{};
-  for (int64_t m = 0; m < n_in; ++m) {
-    V x[NV];
+  for (int64_t g = 0; g < ng; ++g) {
+    const T* Xg = X + g * xg;
+    const T* wg = w + g * n_in * wm;
+    for (int64_t m = 0; m < n_in; ++m) {
+      V x[NV];
 #pragma GCC unroll 8
-    for (int v = 0; v < NV; ++v) x[v] = VT::load(X + m * ldx + v * L);
+      for (int v = 0; v < NV; ++v) x[v] = VT::load(Xg + m * ldx + v * L);
 #pragma GCC unroll 16
-    for (int u = 0; u < RB; ++u) {
-      const V a = VT::set1(w[u * wr + m * wm]);
+      for (int u = 0; u < RB; ++u) {
+        const V a = VT::set1(wg[u * wr + m * wm]);
 #pragma GCC unroll 8
-      for (int v = 0; v < NV; ++v) acc[u][v] += a * x[v];
+        for (int v = 0; v < NV; ++v) acc[u][v] += a * x[v];
+      }
     }
   }
 #pragma GCC unroll 16
