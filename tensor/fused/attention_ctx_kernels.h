@@ -118,14 +118,7 @@ void ctx_forward_all(T* u, T* att, T* rstd_q, T* rstd_k, const AttentionHeads<T>
         T* p = att + bh * Tq * Tk;
         HeadRows<T> x{a.q + b * Tq * a.ldq + h * d, a.k + b * Tk * a.ldk + h * d, nullptr, nullptr, a.ldq, a.ldk, 0,
                       0};
-        if (through_scratch) {
-          T* ks = qs + Tq * d;
-          qk_rows_forward(qs, x.q, x.ldq, Tq, d, a.q_norm, a.norm_eps, rstd_q ? rstd_q + bh * Tq : nullptr,
-                          a.cos_tab, a.sin_tab);
-          qk_rows_forward(ks, x.k, x.ldk, Tk, d, a.k_norm, a.norm_eps, rstd_k ? rstd_k + bh * Tk : nullptr,
-                          a.cos_tab, a.sin_tab);
-          x.q = qs, x.k = ks, x.ldq = x.ldk = d;
-        }
+        if (through_scratch) head_qk_to_scratch(x, qs, a, bh, rstd_q, rstd_k);
         head_probs_any<T, D>(x, p, a.key_mask ? a.key_mask + b * Tk : nullptr, Tq, Tk, d, tkp, s.causal, scale, sc);
         // U[h, b] (Tq x C) = P ctx_b
         wide_row_sums(u + (h * B + b) * Tq * C, C, p, Tk, 1, ctx + b * Tk * C, C, 0, Tk, 1, Tq, C);
@@ -182,21 +175,12 @@ void ctx_backward_all(T* dq, int64_t lddq, T* dk, int64_t lddk, T* dctx, T* dq_n
           HeadRows<T> x{qx, kx, nullptr, nullptr, a.ldq, a.ldk, 0, 0};
           HeadGradRows<T> gr{dqh, dkh, nullptr, lddq, lddk, 0};
           if (through_scratch) {
-            T* ks = qs + Tq * d;
-            qk_rows_forward(qs, qx, a.ldq, Tq, d, a.q_norm, a.norm_eps, (T*)nullptr, a.cos_tab, a.sin_tab);
-            qk_rows_forward(ks, kx, a.ldk, Tk, d, a.k_norm, a.norm_eps, (T*)nullptr, a.cos_tab, a.sin_tab);
-            x.q = qs, x.k = ks, x.ldq = x.ldk = d;
+            head_qk_to_scratch(x, qs, a, bh, (T*)nullptr, (T*)nullptr);
             gr.dq = need_dq ? gs : nullptr, gr.dk = need_dk ? gs + Tq * d : nullptr, gr.ldq = gr.ldk = d;
           }
           head_grads_from_dp_any<T, D>(gr, x, p, ds, Tq, Tk, d, tkp, scale);
-          if (!through_scratch) continue;
-          T* spare = gs + (Tq + Tk) * d;
-          if (need_dq)
-            qk_rows_backward(dqh, lddq, pq, gr.dq, qx, a.ldq, Tq, d, a.q_norm, norm ? rstd_q + bh * Tq : nullptr,
-                             a.cos_tab, a.sin_tab, spare);
-          if (need_dk)
-            qk_rows_backward(dkh, lddk, pk, gr.dk, kx, a.ldk, Tk, d, a.k_norm, norm ? rstd_k + bh * Tk : nullptr,
-                             a.cos_tab, a.sin_tab, spare);
+          if (through_scratch)
+            head_qk_from_scratch(dqh, lddq, dkh, lddk, pq, pk, gr, gs, qx, kx, a, bh, rstd_q, rstd_k);
         }
         // dctx_b (Tk x C) = sum over heads h and queries t of P[b, h, t, :]^T dU[h, b, t]
         if (dctx)

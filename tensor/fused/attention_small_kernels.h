@@ -471,6 +471,36 @@ inline void qk_rows_backward(T* dx, int64_t ldd, T* pw, T* g, const T* x, int64_
   }
 }
 
+// Head bh's q and k as the attention sees them (attention_heads.h): through the QK-norm and RoPE into the scratch qs
+// ((Tq + Tk) x d; their rstd written where rstd_q / rstd_k are not null), and x pointed there.
+template <typename T>
+inline void head_qk_to_scratch(HeadRows<T>& x, T* qs, const AttentionHeads<T>& a, int64_t bh, T* rstd_q, T* rstd_k) {
+  const int64_t Tq = a.s.Tq, Tk = a.s.Tk, d = a.s.d;
+  T* ks = qs + Tq * d;
+  qk_rows_forward(qs, x.q, x.ldq, Tq, d, a.q_norm, a.norm_eps, rstd_q ? rstd_q + bh * Tq : nullptr, a.cos_tab,
+                  a.sin_tab);
+  qk_rows_forward(ks, x.k, x.ldk, Tk, d, a.k_norm, a.norm_eps, rstd_k ? rstd_k + bh * Tk : nullptr, a.cos_tab,
+                  a.sin_tab);
+  x.q = qs, x.k = ks, x.ldq = x.ldk = d;
+}
+
+// The backward of head_qk_to_scratch: the gradients gr.dq / gr.dk (rows of the scratch gs, either null: not needed)
+// into dq / dk rows at qx / kx's head (null: only the norm-weight partials pq / pk), through RoPE and the QK-norm.
+template <typename T>
+inline void head_qk_from_scratch(T* dq, int64_t lddq, T* dk, int64_t lddk, T* pq, T* pk, const HeadGradRows<T>& gr,
+                                 T* gs, const T* qx, const T* kx, const AttentionHeads<T>& a, int64_t bh,
+                                 const T* rstd_q, const T* rstd_k) {
+  const int64_t Tq = a.s.Tq, Tk = a.s.Tk, d = a.s.d;
+  const bool norm = a.q_norm != nullptr;
+  T* spare = gs + (Tq + Tk) * d;
+  if (gr.dq)
+    qk_rows_backward(dq, lddq, pq, gr.dq, qx, a.ldq, Tq, d, a.q_norm, norm ? rstd_q + bh * Tq : nullptr, a.cos_tab,
+                     a.sin_tab, spare);
+  if (gr.dk)
+    qk_rows_backward(dk, lddk, pk, gr.dk, kx, a.ldk, Tk, d, a.k_norm, norm ? rstd_k + bh * Tk : nullptr, a.cos_tab,
+                     a.sin_tab, spare);
+}
+
 // attention_heads_forward (attention_heads.h): heads split over threads whole, as small_forward_all.
 template <typename T>
 void small_heads_forward_all(T* out, int64_t ldo, T* att, T* rstd_q, T* rstd_k, const AttentionHeads<T>& a) {
@@ -492,14 +522,7 @@ void small_heads_forward_all(T* out, int64_t ldo, T* att, T* rstd_q, T* rstd_k, 
         T* p = att + bh * Tq * Tk;
         HeadRows<T> x{a.q + b * Tq * a.ldq + h * d, a.k + b * Tk * a.ldk + h * d, a.v + b * Tk * a.ldv + h * d, o,
                       a.ldq, a.ldk, a.ldv, ldo};
-        if (through_scratch) {
-          T* ks = qs + Tq * d;
-          qk_rows_forward(qs, x.q, x.ldq, Tq, d, a.q_norm, a.norm_eps, rstd_q ? rstd_q + bh * Tq : nullptr,
-                          a.cos_tab, a.sin_tab);
-          qk_rows_forward(ks, x.k, x.ldk, Tk, d, a.k_norm, a.norm_eps, rstd_k ? rstd_k + bh * Tk : nullptr,
-                          a.cos_tab, a.sin_tab);
-          x.q = qs, x.k = ks, x.ldq = x.ldk = d;
-        }
+        if (through_scratch) head_qk_to_scratch(x, qs, a, bh, rstd_q, rstd_k);
         const T* m = a.key_mask ? a.key_mask + b * Tk : nullptr;
         head_forward_any<T, D>(o, x, p, m, Tq, Tk, d, tkp, s.causal, scale, sc);
       }
@@ -541,22 +564,12 @@ void small_heads_backward_all(T* dq, int64_t lddq, T* dk, int64_t lddk, T* dv, i
         HeadRows<T> x{qx, kx, a.v + b * Tk * a.ldv + h * d, dout + b * Tq * ldg + h * d, a.ldq, a.ldk, a.ldv, ldg};
         HeadGradRows<T> gr{dqh, dkh, dv ? dv + b * Tk * lddv + h * d : nullptr, lddq, lddk, lddv};
         if (through_scratch) {
-          T* ks = qs + Tq * d;
-          qk_rows_forward(qs, qx, a.ldq, Tq, d, a.q_norm, a.norm_eps, (T*)nullptr, a.cos_tab, a.sin_tab);
-          qk_rows_forward(ks, kx, a.ldk, Tk, d, a.k_norm, a.norm_eps, (T*)nullptr, a.cos_tab, a.sin_tab);
-          x.q = qs, x.k = ks, x.ldq = x.ldk = d;
+          head_qk_to_scratch(x, qs, a, bh, (T*)nullptr, (T*)nullptr);
           gr.dq = need_dq ? gs : nullptr, gr.dk = need_dk ? gs + Tq * d : nullptr, gr.ldq = gr.ldk = d;
         }
         const T* p = att + bh * Tq * Tk;
         head_backward_any<T, D>(gr, x, p, Tq, Tk, d, tkp, scale, sc);
-        if (!through_scratch) continue;
-        T* spare = gs + (Tq + Tk) * d;
-        if (need_dq)
-          qk_rows_backward(dqh, lddq, pq, gr.dq, qx, a.ldq, Tq, d, a.q_norm,
-                           norm ? rstd_q + bh * Tq : nullptr, a.cos_tab, a.sin_tab, spare);
-        if (need_dk)
-          qk_rows_backward(dkh, lddk, pk, gr.dk, kx, a.ldk, Tk, d, a.k_norm,
-                           norm ? rstd_k + bh * Tk : nullptr, a.cos_tab, a.sin_tab, spare);
+        if (through_scratch) head_qk_from_scratch(dqh, lddq, dkh, lddk, pq, pk, gr, gs, qx, kx, a, bh, rstd_q, rstd_k);
       }
     }
   });
