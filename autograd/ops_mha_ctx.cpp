@@ -1,8 +1,9 @@
 // ops_mha_ctx.cpp — forward/backward of mha_cross_ctx: GEMMs for K and the per-head value projection around the
 // fused per-head loops of tensor/fused/attention_ctx.h.
 // Forward:  K = ctx W_k^T + b_k | P, U = P ctx (fused) | o_h = U_h W_v,h^T (batched over heads) | o += r b_v.
-// Backward: U = P ctx again | dW_v,h = dO_h^T U_h | db_v = sum r dO | dU_h = dO_h W_v,h | fused: dP = dU ctx^T -> dq, dK (through
-//           the softmax and QK-norm), dctx = sum_h P^T dU | dW_k = dK^T ctx | db_k = sum dK | dctx += dK W_k.
+// Backward: U = P ctx again | dW_v,h = dO_h^T U_h | db_v = sum r dO | dU_h = dO_h W_v,h | fused: dP = dU ctx^T ->
+//           dq, dK (through the softmax and QK-norm), dctx = sum_h P^T dU | dW_k = dK^T ctx | db_k = sum dK |
+//           dctx += dK W_k.
 #include "autograd/ops_mha_ctx.h"
 
 #include <atomic>

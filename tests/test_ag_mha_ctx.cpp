@@ -95,8 +95,10 @@ void expect_same(const Fn& a_fn, const Fn& b_fn, const std::vector<Tensor>& in, 
 
 TEST(AgMhaCtx, MatchesCrossAttentionOverTheKvLinearFloat64) {
   // d = 3: the dot/axpy loops; d = 32: the register-blocked ones. C = 7 and 40: column tails of every width.
-  for (const Case& c : {Case{2, 3, 5, 2, 3, 7, false, false, false, false}, Case{2, 3, 5, 2, 3, 7, true, true, true, true},
-                        Case{3, 4, 6, 2, 32, 40, true, true, true, false}, Case{2, 5, 3, 3, 32, 9, false, true, false, false}}) {
+  for (const Case& c : {Case{2, 3, 5, 2, 3, 7, false, false, false, false},
+                        Case{2, 3, 5, 2, 3, 7, true, true, true, true},
+                        Case{3, 4, 6, 2, 32, 40, true, true, true, false},
+                        Case{2, 5, 3, 3, 32, 9, false, true, false, false}}) {
     SCOPED_TRACE("d " + std::to_string(c.d) + " C " + std::to_string(c.C) + " norm " + std::to_string(c.norm) +
                  " bias " + std::to_string(c.bias) + " mask " + std::to_string(c.mask));
     const Tensor mask = c.mask ? mask_of(c.B, c.Tk, c.empty_row) : Tensor();
@@ -120,7 +122,8 @@ TEST(AgMhaCtx, FloatAndBaselineIsaAgree) {
 }
 
 TEST(AgMhaCtx, Gradcheck) {
-  for (const Case& c : {Case{2, 2, 3, 2, 2, 5, true, true, true, false}, Case{1, 3, 2, 1, 3, 4, false, false, false, false}}) {
+  for (const Case& c :
+       {Case{2, 2, 3, 2, 2, 5, true, true, true, false}, Case{1, 3, 2, 1, 3, 4, false, false, false, false}}) {
     const Tensor mask = c.mask ? mask_of(c.B, c.Tk, false) : Tensor();
     auto [ctx_form, kv_form] = both_forms(c, mask);
     ag::GradcheckResult r = ag::gradcheck(ctx_form, inputs_of(c, DType::f64, 30));
@@ -182,11 +185,10 @@ TEST(AgMhaCtx, BadUseThrows) {
   ag::MhaOptions causal = o;
   causal.causal = true;
   expect_error([&] { ag::mha_cross_ctx(q, ctx, w, {}, {}, {}, Tensor(), causal); }, {"mha_cross_ctx", "causal"});
-  expect_error([&] { ag::mha_cross_ctx(ag::Variable(randn({1, 3, 4}, 1, DType::f32)), ctx, w, {}, {}, {}, Tensor(), o); },
-               {"mha_cross_ctx", "dtypes differ"});
+  const ag::Variable q32(randn({1, 3, 4}, 1, DType::f32));
+  expect_error([&] { ag::mha_cross_ctx(q32, ctx, w, {}, {}, {}, Tensor(), o); }, {"mha_cross_ctx", "dtypes differ"});
   // A head too long for the fused per-head loops (Tq * Tk > 64 * 64) is refused, and not chosen.
   EXPECT_FALSE(ag::mha_cross_ctx_chosen(80, 80, 1024, 2, 2));
-  expect_error([&] { ag::mha_cross_ctx(ag::Variable(randn({1, 80, 4}, 1)), ag::Variable(randn({1, 80, 6}, 2)), w, {}, {},
-                                       {}, Tensor(), o); },
-               {"mha_cross_ctx", "not served"});
+  const ag::Variable q80(randn({1, 80, 4}, 1)), ctx80(randn({1, 80, 6}, 2));
+  expect_error([&] { ag::mha_cross_ctx(q80, ctx80, w, {}, {}, {}, Tensor(), o); }, {"mha_cross_ctx", "not served"});
 }
