@@ -140,21 +140,17 @@ void attention_backward(T* dq, T* dk, T* dv, const T* dout, const T* att, const 
 
 bool attention_heads_eligible(const AttentionShape& s) { return use_small(s); }
 
-namespace {
-
-// The checks of attention_heads_forward/backward beyond check_shape: the fused path serves s, leading dimensions
-// hold H*d columns, the norm weights and the RoPE tables come in pairs, RoPE has one position table (Tq == Tk).
 template <typename T>
-void check_heads(const char* op, const AttentionHeads<T>& a) {
+void check_attention_heads(const char* op, const AttentionHeads<T>& a, bool values) {
   const AttentionShape& s = a.s;
   check_shape(op, s);
   if (!attention_heads_eligible(s))
     throw Error(std::string(op) + ": shape not served by the fused heads path (Tq*Tk=" + std::to_string(s.Tq * s.Tk) +
                 ", d=" + std::to_string(s.d) + "); use the (B, H, T, d) attention");
   const int64_t w = s.H * s.d;
-  if (a.ldq < w || a.ldk < w || a.ldv < w)
+  if (a.ldq < w || a.ldk < w || (values && a.ldv < w))
     throw Error(std::string(op) + ": leading dimensions must be >= H*d = " + std::to_string(w) + ", got " +
-                std::to_string(a.ldq) + ", " + std::to_string(a.ldk) + ", " + std::to_string(a.ldv));
+                std::to_string(a.ldq) + ", " + std::to_string(a.ldk) + (values ? ", " + std::to_string(a.ldv) : ""));
   if ((a.q_norm == nullptr) != (a.k_norm == nullptr))
     throw Error(std::string(op) + ": give both norm weights or neither");
   if ((a.cos_tab == nullptr) != (a.sin_tab == nullptr))
@@ -166,15 +162,13 @@ void check_heads(const char* op, const AttentionHeads<T>& a) {
   if (s.B == 0) return;
   check_ptr(op, "q", a.q);
   check_ptr(op, "k", a.k);
-  check_ptr(op, "v", a.v);
+  if (values) check_ptr(op, "v", a.v);
 }
-
-}  // namespace
 
 template <typename T>
 void attention_heads_forward(T* out, int64_t ldo, T* att, T* rstd_q, T* rstd_k, const AttentionHeads<T>& a) {
   const char* op = "attention_heads_forward";
-  check_heads(op, a);
+  check_attention_heads(op, a, true);
   if (a.s.B == 0) return;
   check_ptr(op, "out", out);
   check_ptr(op, "att", att);
@@ -191,7 +185,7 @@ void attention_heads_backward(T* dq, int64_t lddq, T* dk, int64_t lddk, T* dv, i
                               const T* dout, int64_t ldg, const T* att, const T* rstd_q, const T* rstd_k,
                               const AttentionHeads<T>& a) {
   const char* op = "attention_heads_backward";
-  check_heads(op, a);
+  check_attention_heads(op, a, true);
   if (a.s.B == 0) return;
   check_ptr(op, "dout", dout);
   check_ptr(op, "att", att);
@@ -207,6 +201,7 @@ void attention_heads_backward(T* dq, int64_t lddq, T* dk, int64_t lddk, T* dv, i
 }
 
 #define T2M_HEADS_INSTANTIATE(T)                                                                                   \
+  template void check_attention_heads<T>(const char*, const AttentionHeads<T>&, bool);                            \
   template void attention_heads_forward<T>(T*, int64_t, T*, T*, T*, const AttentionHeads<T>&);                   \
   template void attention_heads_backward<T>(T*, int64_t, T*, int64_t, T*, int64_t, T*, T*, const T*, int64_t,     \
                                             const T*, const T*, const T*, const AttentionHeads<T>&);

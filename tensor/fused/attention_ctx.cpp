@@ -12,35 +12,12 @@ namespace t2m::fused {
 
 namespace {
 
-// The checks of attention_heads.h (without v), plus the context.
+// The checks of attention_heads.h without the values, plus the context.
 template <typename T>
 void check_ctx(const char* op, const AttentionHeads<T>& a, const T* ctx, int64_t C) {
-  const AttentionShape& s = a.s;
-  check_dim(op, "B", s.B, 0);
-  check_dim(op, "H", s.H, 1);
-  check_dim(op, "Tq", s.Tq, 1);
-  check_dim(op, "Tk", s.Tk, 1);
-  check_dim(op, "d", s.d, 1);
+  check_attention_heads(op, a, false);
   check_dim(op, "C", C, 1);
-  if (!attention_heads_eligible(s))
-    throw Error(std::string(op) + ": shape not served by the fused heads path (Tq*Tk=" + std::to_string(s.Tq * s.Tk) +
-                ", d=" + std::to_string(s.d) + ")");
-  if (s.causal && s.Tq != s.Tk) throw Error(std::string(op) + ": causal attention needs Tq == Tk");
-  const int64_t w = s.H * s.d;
-  if (a.ldq < w || a.ldk < w)
-    throw Error(std::string(op) + ": leading dimensions must be >= H*d = " + std::to_string(w) + ", got " +
-                std::to_string(a.ldq) + ", " + std::to_string(a.ldk));
-  if ((a.q_norm == nullptr) != (a.k_norm == nullptr))
-    throw Error(std::string(op) + ": give both norm weights or neither");
-  if ((a.cos_tab == nullptr) != (a.sin_tab == nullptr))
-    throw Error(std::string(op) + ": give both RoPE tables or neither");
-  if (a.cos_tab && (s.Tq != s.Tk || s.d % 2 != 0))
-    throw Error(std::string(op) + ": RoPE needs Tq == Tk and an even d");
-  if (!(a.norm_eps >= 0)) throw Error(std::string(op) + ": norm_eps must be >= 0");
-  if (s.B == 0) return;
-  check_ptr(op, "q", a.q);
-  check_ptr(op, "k", a.k);
-  check_ptr(op, "ctx", ctx);
+  if (a.s.B > 0) check_ptr(op, "ctx", ctx);
 }
 
 }  // namespace

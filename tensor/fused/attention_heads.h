@@ -47,6 +47,12 @@ void attention_heads_backward(T* dq, int64_t lddq, T* dk, int64_t lddk, T* dv, i
                               const T* dout, int64_t ldg, const T* att, const T* rstd_q, const T* rstd_k,
                               const AttentionHeads<T>& a);
 
+// The argument checks of attention_heads_forward/backward (t2m::Error naming op): the shape (as attention_forward),
+// served by the fused path, leading dimensions >= H*d, norm weights and RoPE tables in pairs, RoPE with Tq == Tk and
+// an even d, norm_eps >= 0, and (B > 0) q and k non-null; v and ldv too when `values` (attention_ctx.h has none).
+template <typename T>
+void check_attention_heads(const char* op, const AttentionHeads<T>& a, bool values);
+
 // Whether the fused path serves s (the small path's shapes, and attention_force_path not "gemm").
 bool attention_heads_eligible(const AttentionShape& s);
 
