@@ -2,7 +2,7 @@
 # torch_fb_side_by_side.sh — optional measuring aid (never run by tests): one FB agent training update, ours
 # (bench_train_fb) and PyTorch's (../shared/anchor/torch_ref.py --suite fb, --best = OpenBLAS SkylakeX +
 # tcmalloc) in the same session, same configs (fb-w256 B256 and fb-w1024 B1024, parts fb / actor / both), same
-# thread count; prints ms per step (wall, median for torch, mean for ours), our process CPU ms, GFLOP/s with the
+# thread count; prints ms per step (wall, the median step on both sides), our process CPU ms, GFLOP/s with the
 # anchor's FLOP count, % of the 220 GFLOP/s/core peak, and the speed-up torch_ms / ours_ms. The machine load
 # (uptime) is printed before and after: with other jobs running, wall times are inflated for both.
 #
@@ -82,10 +82,11 @@ for name, b in ours.items():
     t = torch.get(name, {})
     flops = b["GFLOP/s"] * b["ms"] * 1e-3  # GFLOP per step
     gf_cpu = flops / (b["cpu_ms"] * 1e-3)  # per CPU-second: per busy core
-    mine = b["cpu_ms"] if mode == "cpu" else b["ms"]
+    wall = b.get("median_ms", b["ms"])  # the median step, as torch_ref.py reports its own
+    mine = b["cpu_ms"] if mode == "cpu" else wall
     theirs = t.get(key, float("nan"))
     cell = lambda v: f"{v:9.1f}" if v is not None else f"{'-':>9s}"  # torch's CPU time: --mode cpu only
-    print(f"{name:22s} {int(b['threads']):3d} {b['ms']:9.1f} {b['cpu_ms']:9.1f} {gf_cpu:9.1f} "
+    print(f"{name:22s} {int(b['threads']):3d} {wall:9.1f} {b['cpu_ms']:9.1f} {gf_cpu:9.1f} "
           f"{100 * gf_cpu / 220:6.1f} {cell(t.get('ms'))} {cell(t.get('cpu'))} "
           f"{theirs / mine:7.2f}x")
 PY

@@ -11,7 +11,8 @@ namespace t2m::bench {
 double process_cpu_seconds();
 
 // Calls step `warmup` times untimed (allocator caches, scratch buffers, optimizer state), then once per benchmark
-// iteration, and sets the counters: ms (wall clock per step), cpu_ms (process CPU time per step, all threads),
+// iteration, and sets the counters: ms (wall clock per step, mean), median_ms (the median step: torch_ref.py's
+// statistic), cpu_ms (process CPU time per step, all threads),
 // GFLOP/s (flops_per_step per wall second), %peak (against kPeakGflopsPerCore x threads), threads.
 void time_steps(benchmark::State& st, const std::function<void()>& step, double flops_per_step, int warmup = 1);
 
