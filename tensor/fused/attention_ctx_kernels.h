@@ -1,12 +1,16 @@
 // attention_ctx_kernels.h — INTERNAL to tensor/fused/attention_ctx*.cpp: the loops of attention_ctx.h, included by
 // attention_ctx.cpp (baseline AVX2 build) and attention_ctx_avx512.cpp (AVX-512 flags); anonymous namespace, so each
 // file gets its own copy for its own ISA (as attention_small_kernels.h, whose per-head pieces it reuses).
-// Forward per head: P (head_probs_any), U = P ctx_b (wide_row_sums: the context rows read in place, no packing);
-// ctx_values_all repeats the second part from the saved P.
+// Forward: per head P (head_probs_any); then per batch row b and block of columns U = P ctx_b for all heads
+// (wide_row_sums: each two-vector chunk of the context rows copied to an L1 buffer, then every head's rows against
+// it); ctx_values_all repeats the second part from the saved P.
 // Backward per batch row b: per head dP = dU ctx_b^T (dot products of length C, register-blocked), the softmax and
 // QK-norm backward (head_grads_from_dp_any, qk_rows_backward); then dctx_b = sum over (h, t) of P[h, t, :]^T dU[h, t]
 // in one pass (wide_row_sums over the heads' rows).
 #pragma once
+#include <algorithm>
+#include <cstring>
+
 #include "tensor/fused/attention_ctx.h"
 #include "tensor/fused/attention_small_kernels.h"
 
@@ -28,25 +32,53 @@ inline void wide_column(T* out, int64_t ldo, const T* w, int64_t wr, int64_t wm,
 
 // Accumulators of a wide_row_sums block: 8 rows x 2 vectors in the 32 zmm registers, 4 x 2 in the 16 ymm registers.
 constexpr int kWideRows = kVecBytes == 64 ? 8 : 4;
+// Up to this many X rows, a chunk's columns of them are copied to a contiguous buffer (16 KB with zmm) before the
+// row blocks read them: X rows C floats apart (4 KB at C = 1024) all map to the same few L1 sets, and read in place
+// they miss L1 on every step (U = P ctx ran at ~45 % of the FMA peak on the Intel host that way).
+constexpr int64_t kStageRows = 128;
+
+// Output rows of wide_row_sums in groups: rows [g * rows, (g + 1) * rows) are written from out + g * stride (one
+// group of all rows unless said), so the heads of one batch row (u's (H, B, Tq, C) layout) go in one call.
+struct RowGroups {
+  int64_t rows = 0, stride = 0;
+};
 
 // All n_out rows and `width` columns of row_sums_block's grouped sum (scale 1): column chunks of two vectors (then
-// one, then single columns), each chunk's rows in blocks of kWideRows (then single rows), so a chunk's X rows stay
-// in L1.
+// one, then single columns), each chunk's X rows staged (kStageRows) and every row group's rows in blocks of
+// kWideRows (then single rows) against them. Staging copies values, so the sums are the same either way.
 template <typename T>
 void wide_row_sums(T* out, int64_t ldo, const T* w, int64_t wr, int64_t wm, const T* X, int64_t ldx, int64_t xg,
-                   int64_t ni, int64_t ng, int64_t n_out, int64_t width) {
+                   int64_t ni, int64_t ng, int64_t n_out, int64_t width, RowGroups og = {}) {
   constexpr int L = Vec<T>::L;
+  if (og.rows <= 0) og = {n_out, 0};
+  const bool stage = ni * ng <= kStageRows;
+  alignas(64) T buf[kStageRows * 2 * L];
   auto chunk = [&]<int NV>(int64_t c) {
-    int64_t r = 0;
-    for (; r + kWideRows <= n_out; r += kWideRows)
-      row_sums_block<T, NV, kWideRows>(out + r * ldo + c, ldo, w + r * wr, wr, wm, X + c, ldx, ni, (T)1, xg, ng);
-    for (; r < n_out; ++r)
-      row_sums_block<T, NV, 1>(out + r * ldo + c, ldo, w + r * wr, wr, wm, X + c, ldx, ni, (T)1, xg, ng);
+    const T* xc = X + c;
+    int64_t ldc = ldx, xgc = xg;
+    if (stage) {
+      for (int64_t g = 0; g < ng; ++g)
+        for (int64_t i = 0; i < ni; ++i)
+          std::memcpy(buf + (g * ni + i) * NV * L, X + g * xg + i * ldx + c, sizeof(T) * NV * L);
+      xc = buf, ldc = NV * L, xgc = ni * NV * L;
+    }
+    for (int64_t r0 = 0; r0 < n_out; r0 += og.rows) {
+      T* o = out + r0 / og.rows * og.stride + c;
+      const T* wg = w + r0 * wr;
+      const int64_t rows = std::min(og.rows, n_out - r0);
+      int64_t r = 0;
+      for (; r + kWideRows <= rows; r += kWideRows)
+        row_sums_block<T, NV, kWideRows>(o + r * ldo, ldo, wg + r * wr, wr, wm, xc, ldc, ni, (T)1, xgc, ng);
+      for (; r < rows; ++r) row_sums_block<T, NV, 1>(o + r * ldo, ldo, wg + r * wr, wr, wm, xc, ldc, ni, (T)1, xgc, ng);
+    }
   };
   int64_t c = 0;
   for (; c + 2 * L <= width; c += 2 * L) chunk.template operator()<2>(c);
   for (; c + L <= width; c += L) chunk.template operator()<1>(c);
-  for (; c < width; ++c) wide_column(out + c, ldo, w, wr, wm, X + c, ldx, xg, ni, ng, n_out);
+  for (; c < width; ++c)
+    for (int64_t r0 = 0; r0 < n_out; r0 += og.rows)
+      wide_column(out + r0 / og.rows * og.stride + c, ldo, w + r0 * wr, wr, wm, X + c, ldx, xg, ni, ng,
+                  std::min(og.rows, n_out - r0));
 }
 
 // out[i * ldo + j] = dot(A row i, B row j) over n for i < RT, j < RS: RT x RS vector accumulators, then each summed
@@ -99,10 +131,23 @@ void dots_matrix(T* out, int64_t ldo, const T* A, int64_t lda, int64_t na, const
   for (; i < na; ++i) row_block.template operator()<1>(i);
 }
 
+// U = P ctx in work items of one batch row b and kValueCols columns (a multiple of every build's two-vector chunk, so
+// each column takes the path it takes in one call over all C): U[h, b] (Tq x C) = P[b, h] ctx_b for every head h,
+// each chunk of ctx_b staged once for all of them.
+constexpr int64_t kValueCols = 256;
+inline int64_t value_items(const AttentionShape& s, int64_t C) { return s.B * ((C + kValueCols - 1) / kValueCols); }
+template <typename T>
+void heads_values(T* u, const T* att, const AttentionShape& s, const T* ctx, int64_t C, int64_t item) {
+  const int64_t blocks = (C + kValueCols - 1) / kValueCols, b = item / blocks, c0 = item % blocks * kValueCols;
+  const int64_t B = s.B, H = s.H, Tq = s.Tq, Tk = s.Tk;
+  wide_row_sums(u + b * Tq * C + c0, C, att + b * H * Tq * Tk, Tk, 1, ctx + b * Tk * C + c0, C, 0, Tk, 1, H * Tq,
+                std::min(kValueCols, C - c0), RowGroups{Tq, B * Tq * C});
+}
+
 template <typename T>
 void ctx_forward_all(T* u, T* att, T* rstd_q, T* rstd_k, const AttentionHeads<T>& a, const T* ctx, int64_t C) {
   const AttentionShape& s = a.s;
-  const int64_t B = s.B, H = s.H, BH = s.B * s.H, Tq = s.Tq, Tk = s.Tk, d = s.d;
+  const int64_t H = s.H, BH = s.B * s.H, Tq = s.Tq, Tk = s.Tk, d = s.d;
   const bool through_scratch = a.q_norm || a.cos_tab;
   const T scale = (T)(1.0 / std::sqrt((double)d));
   const int nt = fused_threads(BH * Tq * Tk * (d + C));
@@ -115,27 +160,23 @@ void ctx_forward_all(T* u, T* att, T* rstd_q, T* rstd_k, const AttentionHeads<T>
 #pragma omp for schedule(static)
       for (int64_t bh = 0; bh < BH; ++bh) {
         const int64_t b = bh / H, h = bh % H;
-        T* p = att + bh * Tq * Tk;
         HeadRows<T> x{a.q + b * Tq * a.ldq + h * d, a.k + b * Tk * a.ldk + h * d, nullptr, nullptr, a.ldq, a.ldk, 0,
                       0};
         if (through_scratch) head_qk_to_scratch(x, qs, a, bh, rstd_q, rstd_k);
-        head_probs_any<T, D>(x, p, a.key_mask ? a.key_mask + b * Tk : nullptr, Tq, Tk, d, tkp, s.causal, scale, sc);
-        // U[h, b] (Tq x C) = P ctx_b
-        wide_row_sums(u + (h * B + b) * Tq * C, C, p, Tk, 1, ctx + b * Tk * C, C, 0, Tk, 1, Tq, C);
+        head_probs_any<T, D>(x, att + bh * Tq * Tk, a.key_mask ? a.key_mask + b * Tk : nullptr, Tq, Tk, d, tkp,
+                             s.causal, scale, sc);
       }
+#pragma omp for schedule(static)
+      for (int64_t item = 0; item < value_items(s, C); ++item) heads_values(u, att, s, ctx, C, item);
     }
   });
 }
 
 template <typename T>
 void ctx_values_all(T* u, const T* att, const AttentionShape& s, const T* ctx, int64_t C) {
-  const int64_t B = s.B, H = s.H, BH = s.B * s.H, Tq = s.Tq, Tk = s.Tk;
-  const int nt = fused_threads(BH * Tq * Tk * C);
+  const int nt = fused_threads(s.B * s.H * s.Tq * s.Tk * C);
 #pragma omp parallel for num_threads(nt) schedule(static) if (nt > 1)
-  for (int64_t bh = 0; bh < BH; ++bh) {
-    const int64_t b = bh / H, h = bh % H;
-    wide_row_sums(u + (h * B + b) * Tq * C, C, att + bh * Tq * Tk, Tk, 1, ctx + b * Tk * C, C, 0, Tk, 1, Tq, C);
-  }
+  for (int64_t item = 0; item < value_items(s, C); ++item) heads_values(u, att, s, ctx, C, item);
 }
 
 template <typename T>

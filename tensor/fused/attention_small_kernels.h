@@ -46,7 +46,6 @@ struct Vec {
     return v;
   }
   static void store(T* p, V v) { std::memcpy(p, &v, sizeof v); }
-  static V set1(T x) { return V{} + x; }
 };
 
 // Rows r < RB of out (row stride ldo, NV vectors wide) = scale * sum over g < ng, m < n_in (in that order) of
@@ -72,7 +71,10 @@ inline void row_sums_block(T* out, int64_t ldo, const T* w, int64_t wr, int64_t 
       for (int v = 0; v < NV; ++v) x[v] = VT::load(Xg + m * ldx + v * L);
 #pragma GCC unroll 16
       for (int u = 0; u < RB; ++u) {
-        const V a = VT::set1(wg[u * wr + m * wm]);
+        // A scalar times a vector: the compiler splats it straight from memory ({1toN} operand or a broadcast
+        // load). Writing the splat as V{} + a costs a scalar add and a register broadcast per row, both on the
+        // FMA ports of Intel cores (0 + a cannot be folded: it turns -0 into +0).
+        const T a = wg[u * wr + m * wm];
 #pragma GCC unroll 8
         for (int v = 0; v < NV; ++v) acc[u][v] += a * x[v];
       }
