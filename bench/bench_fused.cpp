@@ -10,6 +10,7 @@
 
 #include "tensor/fused/adamw.h"
 #include "tensor/fused/attention.h"
+#include "tensor/fused/attention_ctx.h"
 #include "tensor/fused/conv1d.h"
 #include "tensor/fused/gelu_tanh.h"
 #include "tensor/fused/group_norm.h"
@@ -119,6 +120,36 @@ void BM_attention_fwd_bwd(benchmark::State& st) {
   set_counters(st, timer, 3 * attention_forward_flops(s), 0);
 }
 BENCHMARK(BM_attention_fwd_bwd)->Args({64, 64, 64})->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// The fm-paper cross-attention's core in the value-after-sum form (attention_ctx.h): B x 8 heads of 64, Tq motion
+// tokens over 24 text tokens of width 1024, QK RMS-norm; forward (P, U = P ctx), U recomputed, backward (dq, dk,
+// dctx, norm weights). FLOPs: 2 per multiply-add of Q K^T, U = P ctx, and in the backward dP, dctx, dq, dk.
+void BM_attention_ctx_fwd_bwd(benchmark::State& st) {
+  AttentionHeads<float> a;
+  a.s.B = st.range(0);
+  a.s.H = 8;
+  a.s.Tq = st.range(1);
+  a.s.Tk = 24;
+  a.s.d = 64;
+  const int64_t B = a.s.B, H = a.s.H, Tq = a.s.Tq, Tk = a.s.Tk, d = a.s.d, C = 1024, D = H * d;
+  auto q = rand_vec(B * Tq * D, 21), k = rand_vec(B * Tk * D, 22), ctx = rand_vec(B * Tk * C, 23);
+  auto du = rand_vec(H * B * Tq * C, 24), qn = rand_vec(d, 25), kn = rand_vec(d, 26);
+  a.q = q.data(), a.k = k.data(), a.ldq = a.ldk = D;
+  a.q_norm = qn.data(), a.k_norm = kn.data(), a.norm_eps = 1e-6f;
+  std::vector<float> u(H * B * Tq * C), att(B * H * Tq * Tk), rq(B * H * Tq), rk(B * H * Tk);
+  std::vector<float> dq(q.size()), dk(k.size()), dctx(ctx.size()), dqn(d), dkn(d);
+  LoopTimer timer;
+  for (auto _ : st) {
+    attention_ctx_forward<float>(u.data(), att.data(), rq.data(), rk.data(), a, ctx.data(), C);
+    attention_ctx_values<float>(u.data(), att.data(), a.s, ctx.data(), C);
+    attention_ctx_backward<float>(dq.data(), D, dk.data(), D, dctx.data(), dqn.data(), dkn.data(), du.data(),
+                                  att.data(), rq.data(), rk.data(), a, ctx.data(), C);
+    benchmark::DoNotOptimize(dctx.data());
+  }
+  const double qk = double(B * H * Tq * Tk * d), pc = double(B * H * Tq * Tk * C);
+  set_counters(st, timer, 2 * (3 * qk + 4 * pc), 0);  // fwd: QK^T, U, U again; bwd: dP, dctx, dq, dk
+}
+BENCHMARK(BM_attention_ctx_fwd_bwd)->Args({32, 8})->Args({256, 8})->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // tanh-GELU on 4096 x 2048, fwd + bwd. Bytes: fwd reads x writes y; bwd reads x, dy, writes dx.
 void BM_gelu_tanh_fwd_bwd(benchmark::State& st) {
