@@ -11,8 +11,8 @@
 // (AttentionHeads<T>; its v, ldv are not used); ctx (B, Tk, C) contiguous; u, du (H, B, Tq, C) contiguous (head-
 // major, so that head h's rows over (b, t) are one (B*Tq, C) matrix for the value projection's GEMM); att
 // (B, H, Tq, Tk). The heads are split over threads whole for P, (batch row, column block) items for U, the batch
-// rows in the backward: every value is computed by one thread in a fixed order (bitwise identical for any thread count, except the norm-weight
-// gradients, which add per-thread partials in thread order as attention_heads.h does).
+// rows in the backward: every value is computed by one thread in a fixed order (bitwise identical for any thread
+// count, except the norm-weight gradients, which add per-thread partials in thread order as attention_heads.h does).
 // Serves the shapes attention_heads_eligible serves. Errors (t2m::Error): as attention_heads_forward/backward, plus
 // C < 1 and a null ctx, u or du.
 #pragma once

@@ -51,6 +51,7 @@ void wide_row_sums(T* out, int64_t ldo, const T* w, int64_t wr, int64_t wm, cons
                    int64_t ni, int64_t ng, int64_t n_out, int64_t width, RowGroups og = {}) {
   constexpr int L = Vec<T>::L;
   if (og.rows <= 0) og = {n_out, 0};
+  auto group_out = [&](int64_t r0, int64_t c) { return out + r0 / og.rows * og.stride + c; };  // group of row r0
   const bool stage = ni * ng <= kStageRows;
   alignas(64) T buf[kStageRows * 2 * L];
   auto chunk = [&]<int NV>(int64_t c) {
@@ -63,7 +64,7 @@ void wide_row_sums(T* out, int64_t ldo, const T* w, int64_t wr, int64_t wm, cons
       xc = buf, ldc = NV * L, xgc = ni * NV * L;
     }
     for (int64_t r0 = 0; r0 < n_out; r0 += og.rows) {
-      T* o = out + r0 / og.rows * og.stride + c;
+      T* o = group_out(r0, c);
       const T* wg = w + r0 * wr;
       const int64_t rows = std::min(og.rows, n_out - r0);
       int64_t r = 0;
@@ -77,8 +78,7 @@ void wide_row_sums(T* out, int64_t ldo, const T* w, int64_t wr, int64_t wm, cons
   for (; c + L <= width; c += L) chunk.template operator()<1>(c);
   for (; c < width; ++c)
     for (int64_t r0 = 0; r0 < n_out; r0 += og.rows)
-      wide_column(out + r0 / og.rows * og.stride + c, ldo, w + r0 * wr, wr, wm, X + c, ldx, xg, ni, ng,
-                  std::min(og.rows, n_out - r0));
+      wide_column(group_out(r0, c), ldo, w + r0 * wr, wr, wm, X + c, ldx, xg, ni, ng, std::min(og.rows, n_out - r0));
 }
 
 // out[i * ldo + j] = dot(A row i, B row j) over n for i < RT, j < RS: RT x RS vector accumulators, then each summed
