@@ -69,21 +69,24 @@ Variable sigmoid(const Variable& a) {
   });
 }
 
+// g * (ref > 0)
+Tensor relu_grad(const Tensor& g, const Tensor& ref) {
+  const DType dt = ref.dtype();
+  if ((dt != DType::f32 && dt != DType::f64) || g.dtype() != dt || g.shape() != ref.shape())
+    return t2m::mul(g, t2m::gt(ref, 0.0));  // the general (broadcasting, mixed dtype) path
+  const Tensor gc = g.contiguous(), rc = ref.contiguous();
+  Tensor da = Tensor::empty(rc.shape(), dt);
+  if (dt == DType::f32)
+    relu_backward<float>(da.data<float>(), gc.data<float>(), rc.data<float>(), rc.numel());
+  else
+    relu_backward<double>(da.data<double>(), gc.data<double>(), rc.data<double>(), rc.numel());
+  return da;
+}
+
 // da = g * (a > 0)
 Variable relu(const Variable& a) {
   Tensor ta = a.data();
-  return record("relu", t2m::relu(ta), {a}, [ta](const Tensor& g, const Need&) {
-    const DType dt = ta.dtype();
-    if ((dt != DType::f32 && dt != DType::f64) || g.dtype() != dt || g.shape() != ta.shape())
-      return Grads{t2m::mul(g, t2m::gt(ta, 0.0))};  // the general (broadcasting, mixed dtype) path
-    const Tensor gc = g.contiguous(), ac = ta.contiguous();
-    Tensor da = Tensor::empty(ac.shape(), dt);
-    if (dt == DType::f32)
-      relu_backward<float>(da.data<float>(), gc.data<float>(), ac.data<float>(), ac.numel());
-    else
-      relu_backward<double>(da.data<double>(), gc.data<double>(), ac.data<double>(), ac.numel());
-    return Grads{da};
-  });
+  return record("relu", t2m::relu(ta), {a}, [ta](const Tensor& g, const Need&) { return Grads{relu_grad(g, ta)}; });
 }
 
 // da = g * sign(a)

@@ -16,6 +16,10 @@ Variable rsqrt(const Variable& a);
 Variable tanh(const Variable& a);
 Variable sigmoid(const Variable& a);
 Variable relu(const Variable& a);
+// The ReLU's backward as a tensor kernel: g * (ref > 0) in one pass, where ref is the ReLU's input or its output
+// (the same mask: the output is > 0 exactly where the input is; NaN and -0 give 0). g and ref: one shape, f32 or
+// f64, the same dtype. Used by relu and by fused ops that end in a ReLU (nn::linear_relu).
+Tensor relu_grad(const Tensor& g, const Tensor& ref);
 Variable abs(const Variable& a);
 Variable sin(const Variable& a);
 Variable cos(const Variable& a);

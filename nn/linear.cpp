@@ -7,6 +7,7 @@
 #include <string>
 
 #include "autograd/node.h"
+#include "autograd/ops_unary.h"
 #include "tensor/gemm.h"
 #include "tensor/parallel.h"
 
@@ -16,10 +17,14 @@ namespace {
 
 bool is_float(DType d) { return d == DType::f32 || d == DType::f64; }
 
-// x (N, in), w (out, in), b (out) or null -> y (N, out) = x w^T + b (the bias added in the GEMM's final store).
+// x (N, in), w (out, in), b (out) or null -> y (N, out) = x w^T + b (the bias added in the GEMM's final store),
+// or relu(x w^T + b) with the ReLU on each output tile as the GEMM stores it.
 template <typename T>
-void linear_fwd(T* y, const T* x, const T* w, const T* b, int64_t N, int64_t in, int64_t out) {
-  gemm_bias(false, true, N, out, in, (T)1, x, in, w, in, b, y, out);
+void linear_fwd(T* y, const T* x, const T* w, const T* b, int64_t N, int64_t in, int64_t out, bool relu) {
+  if (relu)
+    gemm_bias_relu(false, true, N, out, in, (T)1, x, in, w, in, b, y, out);
+  else
+    gemm_bias(false, true, N, out, in, (T)1, x, in, w, in, b, y, out);
 }
 
 // g (N, out), x (N, in), w (out, in). dx (N, in) = g w; dw (out, in) = g^T x; db (out) = sum_n g[n]. Null skips.
@@ -60,13 +65,12 @@ T* ptr(Tensor& t) { return t.defined() ? t.data<T>() : nullptr; }
 template <typename T>
 const T* cptr(const Tensor& t) { return t.defined() ? t.data<T>() : nullptr; }
 
-}  // namespace
-
-// x (..., in), w (out, in), b (out) -> y (..., out).
-ag::Variable linear(const ag::Variable& x, const ag::Variable& weight, const ag::Variable& bias) {
+// x (..., in), w (out, in), b (out) -> y (..., out) = x w^T + b, or its ReLU (`op` names it in errors).
+ag::Variable linear_op(const char* op, const ag::Variable& x, const ag::Variable& weight, const ag::Variable& bias,
+                       bool relu) {
   auto fail = [&](const std::string& what) {
-    throw Error("linear: " + what + " (x " + shape_str(x.shape()) + ", weight " + shape_str(weight.shape()) +
-                (bias.defined() ? ", bias " + shape_str(bias.shape()) : "") + ")");
+    throw Error(std::string(op) + ": " + what + " (x " + shape_str(x.shape()) + ", weight " +
+                shape_str(weight.shape()) + (bias.defined() ? ", bias " + shape_str(bias.shape()) : "") + ")");
   };
   if (weight.dim() != 2) fail("weight must be 2-D (out, in)");
   const int64_t out = weight.size(0), in = weight.size(1);
@@ -84,19 +88,22 @@ ag::Variable linear(const ag::Variable& x, const ag::Variable& weight, const ag:
   Tensor y = Tensor::empty(oshape, dt);
   if (N > 0) {
     if (dt == DType::f32)
-      linear_fwd<float>(y.data<float>(), xc.data<float>(), wc.data<float>(), cptr<float>(bc), N, in, out);
+      linear_fwd<float>(y.data<float>(), xc.data<float>(), wc.data<float>(), cptr<float>(bc), N, in, out, relu);
     else
-      linear_fwd<double>(y.data<double>(), xc.data<double>(), wc.data<double>(), cptr<double>(bc), N, in, out);
+      linear_fwd<double>(y.data<double>(), xc.data<double>(), wc.data<double>(), cptr<double>(bc), N, in, out,
+                         relu);
   }
   std::vector<ag::Variable> vars{x, weight};
   if (bias.defined()) vars.push_back(bias);
   // Save x only when W needs a gradient and W only when x does.
   const Tensor sx = weight.requires_grad() ? xc : Tensor(), sw = x.requires_grad() ? wc : Tensor();
   const bool has_bias = bias.defined();
-  return ag::record("linear", y, vars,
-                    [sx, sw, has_bias, N, in, out, dt, xshape = x.shape()](const Tensor& grad,
-                                                                           const std::vector<bool>& need) {
-                      const Tensor g = grad.contiguous();
+  const Tensor sy = relu ? y : Tensor();  // the ReLU's mask comes from its output
+  return ag::record(op, y, vars,
+                    [sx, sw, sy, has_bias, N, in, out, dt, xshape = x.shape()](const Tensor& grad,
+                                                                               const std::vector<bool>& need) {
+                      // the ReLU's mask from its output: the same bits as ag::relu's from its input
+                      const Tensor g = sy.defined() ? ag::relu_grad(grad, sy) : grad.contiguous();
                       Tensor dx, dw, db;
                       if (need[0]) dx = Tensor::empty(xshape, dt);
                       if (need[1]) dw = Tensor::empty({out, in}, dt);
@@ -117,6 +124,16 @@ ag::Variable linear(const ag::Variable& x, const ag::Variable& weight, const ag:
                     });
 }
 
+}  // namespace
+
+ag::Variable linear(const ag::Variable& x, const ag::Variable& weight, const ag::Variable& bias) {
+  return linear_op("linear", x, weight, bias, false);
+}
+
+ag::Variable linear_relu(const ag::Variable& x, const ag::Variable& weight, const ag::Variable& bias) {
+  return linear_op("linear_relu", x, weight, bias, true);
+}
+
 Linear::Linear(int64_t in_features, int64_t out_features, bool bias, Generator& gen)
     : in_(in_features), out_(out_features) {
   if (in_ < 1 || out_ < 1)
@@ -128,5 +145,6 @@ Linear::Linear(int64_t in_features, int64_t out_features, bool bias, Generator& 
 }
 
 ag::Variable Linear::forward(const ag::Variable& x) const { return linear(x, weight_, bias_); }
+ag::Variable Linear::forward_relu(const ag::Variable& x) const { return linear_relu(x, weight_, bias_); }
 
 }  // namespace t2m::nn

@@ -7,6 +7,9 @@
 //   accepted (copied to contiguous once when needed). float32 and float64.
 //   Errors (t2m::Error, message starts "linear:" and names the shapes): x with no dims, x's last dim != in,
 //   weight not 2-D, bias not (out), non-float or mixed dtypes.
+// linear_relu(x, weight, bias): relu(linear(x, weight, bias)) as one op, the same bits forward and backward: the
+//   ReLU runs on each output tile as the GEMM stores it (no pass of its own, no pre-activation tensor kept), and
+//   the backward masks the output gradient by y > 0 before the linear backward. Errors as linear ("linear_relu:").
 //
 // Linear(in, out, bias, gen): parameters "weight" (out, in) and "bias" (out) when bias is on, both drawn from
 //   U(-1/sqrt(in), 1/sqrt(in)) (PyTorch's default), weight first, from the given Generator.
@@ -21,12 +24,14 @@
 namespace t2m::nn {
 
 ag::Variable linear(const ag::Variable& x, const ag::Variable& weight, const ag::Variable& bias);
+ag::Variable linear_relu(const ag::Variable& x, const ag::Variable& weight, const ag::Variable& bias);
 
 class Linear : public Module {
  public:
   Linear(int64_t in_features, int64_t out_features, bool bias, Generator& gen);
   ag::Variable forward(const ag::Variable& x) const;
   ag::Variable operator()(const ag::Variable& x) const { return forward(x); }
+  ag::Variable forward_relu(const ag::Variable& x) const;  // relu(forward(x)), fused (linear_relu)
 
   int64_t in_features() const { return in_; }
   int64_t out_features() const { return out_; }

@@ -42,6 +42,7 @@ struct GemmArgs {
   T* C;
   int64_t ldc;
   const T* bias = nullptr;  // length N, added to every row of C; only with beta == 0 (gemm_bias)
+  bool relu = false;        // C = max(C, 0) once the product is complete (gemm_bias_relu)
   GemmColumns ac{}, bc{}, cc{};  // the stored matrices' column segments (gemm_segmented); plain by default
   bool segmented() const { return ac.len || bc.len || cc.len; }
   const T* a_at(int64_t i, int64_t k) const {  // &op(A)[i,k]
@@ -230,6 +231,25 @@ void gemm_small(const GemmArgs<T>& g, int nt) {
   }
 }
 
+// ---- the ReLU epilogue ----------------------------------------------------------------------------------------
+
+// c[j] = max(c[j], 0) over one run of n elements, with relu's NaN and -0 behaviour (x < 0 ? 0 : x).
+template <typename T>
+void relu_run(T* c, int64_t n) {
+  for (int64_t j = 0; j < n; ++j) c[j] = c[j] < T(0) ? T(0) : c[j];
+}
+
+// The ReLU over all of C, for the paths without a tile epilogue (small shapes, K == 0).
+template <typename T>
+void relu_c(const GemmArgs<T>& g) {
+  for (int64_t i = 0; i < g.M; ++i)
+    for (int64_t j0 = 0; j0 < g.N;) {
+      const int64_t n = std::min(g.N - j0, segment_left(g.cc, j0));
+      relu_run(g.c_at(i, j0), n);
+      j0 += n;
+    }
+}
+
 // ---- the packed path ------------------------------------------------------------------------------------------
 
 // The C block at rows from `c` (row stride ldc), columns [j0, j0 + nc) (stored in segments cs), from packed A
@@ -238,7 +258,7 @@ void gemm_small(const GemmArgs<T>& g, int nt) {
 // boundary, go through a local tile so that the micro-kernel always runs full-size.
 template <typename T>
 void macro_kernel(const MicroKernel<T>& uk, int64_t mc, int64_t nc, int64_t kc, const T* ap, const T* bp, T* c,
-                  int64_t ldc, const GemmColumns& cs, int64_t j0, T alpha, T beta, const T* bias) {
+                  int64_t ldc, const GemmColumns& cs, int64_t j0, T alpha, T beta, const T* bias, bool relu) {
   const int mr = uk.mr, nr = uk.nr;
   alignas(64) T tile[32 * 64];
   // One row of an edge tile from the local tile t: n columns at row.
@@ -267,19 +287,24 @@ void macro_kernel(const MicroKernel<T>& uk, int64_t mc, int64_t nc, int64_t kc, 
             __builtin_prefetch(cc + i * ldc + nr - 1, 1);
           }
         uk.kernel(kc, a, b, cc, ldc, alpha, beta, bias_j);
+        if (relu)
+          for (int i = 0; i < mr; ++i) relu_run(cc + i * ldc, nr);
         continue;
       }
       const int s = !one_run || n < nr ? -1 : m == uk.short_m[0] ? 0 : m == uk.short_m[1] ? 1 : -1;
       if (s >= 0 && uk.short_kernel[s]) {  // a short row panel of a size with its own kernel: straight into C
         uk.short_kernel[s](kc, a, b, cc, ldc, alpha, beta, bias_j);
+        if (relu)
+          for (int64_t i = 0; i < m; ++i) relu_run(cc + i * ldc, nr);
         continue;
       }
       uk.kernel(kc, a, b, tile, nr, T(1), T(0), nullptr);
       for (int64_t i = 0; i < m; ++i)
         for (int64_t j = 0; j < n;) {  // by runs of contiguous columns: one, unless the tile straddles a segment
           const int64_t run = std::min(n - j, segment_left(cs, j0 + jr + j));
-          store_row(c + (ir + i) * ldc + segment_col(cs, j0 + jr + j), tile + i * nr + j,
-                    bias_j ? bias_j + j : nullptr, run);
+          T* row = c + (ir + i) * ldc + segment_col(cs, j0 + jr + j);
+          store_row(row, tile + i * nr + j, bias_j ? bias_j + j : nullptr, run);
+          if (relu) relu_run(row, run);
           j += run;
         }
     }
@@ -380,6 +405,7 @@ void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
         const int64_t kc = std::min(KC, g.K - pc);
         const T beta = pc == 0 ? g.beta : T(1);
         const T* bias = pc == 0 && g.bias ? g.bias + jc : nullptr;  // the bias joins in the first K block
+        const bool relu = g.relu && pc + kc >= g.K;                    // the ReLU follows the last one
         const int64_t panels = ceil_div(nc, nr);
         if (split_m) {
           if (ranges) ranges[t].reset(ceil_div(m1 - m0, MC) * panels);  // published by the barrier below
@@ -397,7 +423,7 @@ void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
           for (int64_t ic = m0; ic < m1; ic += MC) {
             const int64_t mc = std::min(MC, m1 - ic);
             pack_a_block(uk, g, ic, mc, pc, kc, ap);
-            macro_kernel(uk, mc, nc, kc, ap, bp, g.C + ic * g.ldc, g.ldc, g.cc, jc, g.alpha, beta, bias);
+            macro_kernel(uk, mc, nc, kc, ap, bp, g.C + ic * g.ldc, g.ldc, g.cc, jc, g.alpha, beta, bias, relu);
           }
         } else {
           // Thread u's share: rows [r0, r1) against the columns [c, c + n) whose B panels are packed at b (split by
@@ -427,7 +453,7 @@ void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
                 packed_ic = ic;
               }
               macro_kernel(uk, mc, std::min(nr, sh.n - p * nr), kc, ap, sh.b + p * kc * nr, g.C + ic * g.ldc, g.ldc,
-                           g.cc, sh.c + p * nr, g.alpha, beta, bias_u ? bias_u + p * nr : nullptr);
+                           g.cc, sh.c + p * nr, g.alpha, beta, bias_u ? bias_u + p * nr : nullptr, relu);
             }
           }
         }
@@ -451,17 +477,22 @@ int threads_for(int64_t work) {
 template <typename T>
 void gemm_run(const GemmArgs<T>& g, int nt) {
   if (g.M == 0 || g.N == 0) return;
-  if (g.K == 0 || g.alpha == T(0)) return scale_c(g);
-  if (is_small(g) && !g.segmented()) return gemm_small(g, nt);
-  gemm_packed(select_kernel<T>(), g, nt);
+  if (g.K == 0 || g.alpha == T(0)) {
+    scale_c(g);
+  } else if (is_small(g) && !g.segmented()) {
+    gemm_small(g, nt);
+  } else {
+    return gemm_packed(select_kernel<T>(), g, nt);  // the ReLU, if any, ran on each tile
+  }
+  if (g.relu) relu_c(g);
 }
 
 // One product through the public entry points; `op` names the entry point in errors.
 template <typename T>
 void gemm_one(bool ta, bool tb, int64_t M, int64_t N, int64_t K, T alpha, const T* A, int64_t lda, const T* B,
               int64_t ldb, T beta, T* C, int64_t ldc, const T* bias = nullptr, GemmColumns ac = {},
-              GemmColumns bc = {}, GemmColumns cc = {}, const char* op = "gemm") {
-  const GemmArgs<T> g{ta, tb, M, N, K, alpha, A, lda, B, ldb, bias ? T(0) : beta, C, ldc, bias, ac, bc, cc};
+              GemmColumns bc = {}, GemmColumns cc = {}, const char* op = "gemm", bool relu = false) {
+  const GemmArgs<T> g{ta, tb, M, N, K, alpha, A, lda, B, ldb, bias ? T(0) : beta, C, ldc, bias, relu, ac, bc, cc};
   check_args(op, g);
   gemm_run(g, threads_for(M * N * K));
 }
@@ -511,6 +542,14 @@ void gemm_bias(bool ta, bool tb, int64_t M, int64_t N, int64_t K, float alpha, c
 void gemm_bias(bool ta, bool tb, int64_t M, int64_t N, int64_t K, double alpha, const double* A, int64_t lda,
                const double* B, int64_t ldb, const double* bias, double* C, int64_t ldc) {
   gemm_one(ta, tb, M, N, K, alpha, A, lda, B, ldb, 0.0, C, ldc, bias);
+}
+void gemm_bias_relu(bool ta, bool tb, int64_t M, int64_t N, int64_t K, float alpha, const float* A, int64_t lda,
+                    const float* B, int64_t ldb, const float* bias, float* C, int64_t ldc) {
+  gemm_one(ta, tb, M, N, K, alpha, A, lda, B, ldb, 0.0f, C, ldc, bias, {}, {}, {}, "gemm_bias_relu", true);
+}
+void gemm_bias_relu(bool ta, bool tb, int64_t M, int64_t N, int64_t K, double alpha, const double* A,
+                    int64_t lda, const double* B, int64_t ldb, const double* bias, double* C, int64_t ldc) {
+  gemm_one(ta, tb, M, N, K, alpha, A, lda, B, ldb, 0.0, C, ldc, bias, {}, {}, {}, "gemm_bias_relu", true);
 }
 void gemm_batched(bool ta, bool tb, int64_t batch, int64_t M, int64_t N, int64_t K, float alpha, const float* A,
                   int64_t lda, int64_t sa, const float* B, int64_t ldb, int64_t sb, float beta, float* C,

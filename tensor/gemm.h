@@ -26,6 +26,14 @@ void gemm_bias(bool trans_a, bool trans_b, int64_t M, int64_t N, int64_t K, floa
 void gemm_bias(bool trans_a, bool trans_b, int64_t M, int64_t N, int64_t K, double alpha, const double* A,
                int64_t lda, const double* B, int64_t ldb, const double* bias, double* C, int64_t ldc);
 
+// C = max(alpha * op(A) op(B) + 1 bias^T, 0): gemm_bias followed by a ReLU (x < 0 ? 0 : x, so NaN and -0 stay),
+// applied to each C tile as its last K block is stored, while the tile is still in L1 (the forward of a linear
+// layer followed by ReLU). The same bits as gemm_bias then a ReLU pass. bias may be null.
+void gemm_bias_relu(bool trans_a, bool trans_b, int64_t M, int64_t N, int64_t K, float alpha, const float* A,
+                    int64_t lda, const float* B, int64_t ldb, const float* bias, float* C, int64_t ldc);
+void gemm_bias_relu(bool trans_a, bool trans_b, int64_t M, int64_t N, int64_t K, double alpha, const double* A,
+                    int64_t lda, const double* B, int64_t ldb, const double* bias, double* C, int64_t ldc);
+
 // Batched: for b in [0, batch): C_b = alpha * op(A_b) op(B_b) + beta * C_b with A_b = A + b*stride_a, etc.
 // A stride of 0 broadcasts one matrix over the batch. Threads split across the batch or within each GEMM.
 void gemm_batched(bool trans_a, bool trans_b, int64_t batch, int64_t M, int64_t N, int64_t K, float alpha,

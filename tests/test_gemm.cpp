@@ -7,6 +7,7 @@
 
 #include <Eigen/Dense>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <random>
 #include <string>
@@ -259,6 +260,57 @@ void bias_matches_two_pass() {
 }
 TEST(Gemm, FloatBiasMatchesTwoPass) { bias_matches_two_pass<float>(); }
 TEST(Gemm, DoubleBiasMatchesTwoPass) { bias_matches_two_pass<double>(); }
+
+// gemm_bias_relu gives the bits of gemm_bias followed by relu (x < 0 ? 0 : x, NaN kept) on the small-shape path,
+// full and edge tiles, short row panels, two and three K blocks (the ReLU after the last one only), K == 0, both
+// kernels, 1 and 2 threads. A NaN in A shows the NaN passes the ReLU.
+template <typename T>
+void bias_relu_matches_two_pass() {
+  const int saved = t2m::get_num_threads();
+  struct Shape3 { int64_t M, N, K; };
+  for_each_kernel([] {
+    for (const Shape3 s : {Shape3{2, 7, 5}, Shape3{20, 64, 33}, Shape3{44, 100, 600}, Shape3{256, 96, 70},
+                           Shape3{100, 300, 1100}, Shape3{13, 40, 0}}) {
+      for (int t = 0; t < 4; ++t) {
+        for (int threads : {1, 2}) {
+          t2m::set_num_threads(threads);
+          const bool ta = t & 1, tb = t & 2;
+          std::mt19937 rng(uint32_t(s.M * 5 + s.N + t));
+          std::uniform_real_distribution<double> u(-1.0, 1.0);
+          std::vector<T> A(size_t(std::max<int64_t>(1, s.M * s.K))), B(size_t(std::max<int64_t>(1, s.K * s.N)));
+          std::vector<T> bias(size_t(s.N));
+          for (auto& v : A) v = T(u(rng));
+          for (auto& v : B) v = T(u(rng));
+          for (auto& v : bias) v = T(u(rng));
+          if (s.K > 0) A[0] = std::numeric_limits<T>::quiet_NaN();
+          const int64_t lda = ta ? s.M : std::max<int64_t>(1, s.K), ldb = tb ? std::max<int64_t>(1, s.K) : s.N;
+          std::vector<T> fused(size_t(s.M * s.N), T(7)), two(size_t(s.M * s.N), T(7));
+          t2m::gemm_bias_relu(ta, tb, s.M, s.N, s.K, T(1), A.data(), lda, B.data(), ldb, bias.data(), fused.data(),
+                              s.N);
+          t2m::gemm_bias(ta, tb, s.M, s.N, s.K, T(1), A.data(), lda, B.data(), ldb, bias.data(), two.data(), s.N);
+          size_t zeros = 0;
+          for (auto& v : two) {
+            zeros += v < T(0);
+            v = v < T(0) ? T(0) : v;
+          }
+          EXPECT_GT(zeros, 0u) << "M=" << s.M << " N=" << s.N << " K=" << s.K;
+          ASSERT_EQ(fused.size(), two.size());
+          for (size_t i = 0; i < two.size(); ++i) {
+            ASSERT_TRUE(std::memcmp(&fused[i], &two[i], sizeof(T)) == 0)
+                << "M=" << s.M << " N=" << s.N << " K=" << s.K << " t=" << t << " threads=" << threads << " at "
+                << i << ": " << fused[i] << " vs " << two[i];
+          }
+          if (s.K > 0) {
+            EXPECT_TRUE(std::isnan(fused[0]));
+          }
+        }
+      }
+    }
+  });
+  t2m::set_num_threads(saved);
+}
+TEST(Gemm, FloatBiasReluMatchesTwoPass) { bias_relu_matches_two_pass<float>(); }
+TEST(Gemm, DoubleBiasReluMatchesTwoPass) { bias_relu_matches_two_pass<double>(); }
 
 // stride_c == 0: every product accumulates into the same C (beta = 1 sums over the batch).
 TEST(Gemm, BatchedStrideZeroOutputAccumulates) {

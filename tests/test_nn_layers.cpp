@@ -3,6 +3,7 @@
 // checkpoint round trips.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <functional>
@@ -10,6 +11,7 @@
 #include "autograd/gradcheck.h"
 #include "autograd/ops_elementwise.h"
 #include "autograd/ops_reduce.h"
+#include "autograd/ops_unary.h"
 #include "nn/activation.h"
 #include "nn/checkpoint.h"
 #include "nn/conv1d.h"
@@ -172,6 +174,39 @@ TEST(NnLinear, BackwardFillsParameterGradsAndAccumulates) {
   EXPECT_LT(max_abs_diff(big.bias().grad(), sum(g2, {0})), 1e-10);
   EXPECT_LT(max_abs_diff(big.weight().grad(), matmul(g2.transpose(0, 1), x2)), 1e-10);
   EXPECT_LT(max_abs_diff(xb.grad(), matmul(seed, big.weight().data())), 1e-10);
+}
+
+// linear_relu: the fused op's gradients (float64) and, in float32 on shapes that take the packed GEMM with edge
+// tiles and two K blocks, the same bits as relu(linear(.)) forward and backward (inputs, weight, bias).
+TEST(NnLinear, LinearReluGradcheckAndSameBitsAsTwoOps) {
+  for (bool bias : {true, false}) {
+    Generator g(13);
+    nn::Linear lin(4, 3, bias, g);
+    lin.to(DType::f64);
+    expect_module_gradcheck(lin, [&](const ag::Variable& x) { return lin.forward_relu(x); }, randn({5, 4}, 14));
+    expect_module_gradcheck(lin, [&](const ag::Variable& x) { return lin.forward_relu(x); }, randn({2, 3, 4}, 15));
+  }
+  struct Case { int64_t N, in, out; };
+  for (const Case c : {Case{3, 4, 5}, Case{50, 70, 90}, Case{130, 600, 77}}) {
+    Generator g(16);
+    nn::Linear lin(c.in, c.out, true, g);
+    const Tensor x = randn({c.N, c.in}, 17, DType::f32), seed = randn({c.N, c.out}, 18, DType::f32);
+    std::vector<Tensor> got;
+    for (int fused = 0; fused < 2; ++fused) {
+      lin.zero_grad();
+      ag::Variable xv(x.clone(), true);
+      const ag::Variable y = fused ? lin.forward_relu(xv) : ag::relu(lin(xv));
+      y.backward(seed);
+      for (const Tensor& t : {y.data(), xv.grad(), lin.weight().grad(), lin.bias().grad()}) got.push_back(t.clone());
+    }
+    const std::vector<float> y = got[0].to_vector<float>();
+    EXPECT_GT(std::count(y.begin(), y.end(), 0.0f), 0) << "some outputs must be cut by the ReLU";
+    EXPECT_GT(std::count_if(y.begin(), y.end(), [](float v) { return v > 0; }), 0);
+    for (size_t i = 0; i < 4; ++i)
+      EXPECT_EQ(got[i].to_vector<float>(), got[i + 4].to_vector<float>()) << "N=" << c.N << " tensor " << i;
+  }
+  expect_error([&] { nn::linear_relu(ag::Variable(randn({2, 5}, 1)), ag::Variable(randn({3, 4}, 2)), {}); },
+               {"linear_relu", "[2, 5]"});
 }
 
 TEST(NnLinear, BadUseThrows) {

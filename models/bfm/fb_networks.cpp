@@ -42,7 +42,7 @@ FbEmbedding::FbEmbedding(int64_t in, int64_t h, Generator& gen) {
 
 // x [N, in] -> relu(fc2(tanh(ln(fc1(x))))) [N, h/2]
 ag::Variable FbEmbedding::forward(const ag::Variable& x) const {
-  return ag::relu(fc2_->forward(layer_norm_tanh(fc1_->forward(x), ln_->weight(), ln_->bias())));
+  return fc2_->forward_relu(layer_norm_tanh(fc1_->forward(x), ln_->weight(), ln_->bias()));
 }
 
 ForwardMap::ForwardMap(int64_t D, int64_t A, int64_t d, int64_t h, Generator& gen) : D_(D), A_(A), d_(d) {
@@ -62,7 +62,7 @@ ag::Variable ForwardMap::forward(const ag::Variable& s, const ag::Variable& a, c
   check_rows("ForwardMap", s, z);
   const ag::Variable hz = embed_z_->forward(ag::concat({s, z}, 1));
   const ag::Variable hsa = embed_sa_->forward(ag::concat({s, a}, 1));
-  return fc2_->forward(ag::relu(fc1_->forward(ag::concat({hz, hsa}, 1))));
+  return fc2_->forward(fc1_->forward_relu(ag::concat({hz, hsa}, 1)));
 }
 
 BackwardMap::BackwardMap(int64_t D, int64_t d, int64_t h, Generator& gen) : D_(D), d_(d) {
@@ -77,7 +77,7 @@ BackwardMap::BackwardMap(int64_t D, int64_t d, int64_t h, Generator& gen) : D_(D
 ag::Variable BackwardMap::forward(const ag::Variable& s) const {
   check_last("BackwardMap", "s", s, D_);
   const ag::Variable u =
-      fc3_->forward(ag::relu(fc2_->forward(layer_norm_tanh(fc1_->forward(s), ln_->weight(), ln_->bias()))));
+      fc3_->forward(fc2_->forward_relu(layer_norm_tanh(fc1_->forward(s), ln_->weight(), ln_->bias())));
   return sphere_project(u, std::sqrt((double)d_));
 }
 
@@ -96,7 +96,7 @@ ag::Variable Actor::forward(const ag::Variable& s, const ag::Variable& z) const 
   check_rows("Actor", s, z);
   const ag::Variable hz = embed_z_->forward(ag::concat({s, z}, 1));
   const ag::Variable hs = embed_s_->forward(s);
-  return ag::tanh(fc2_->forward(ag::relu(fc1_->forward(ag::concat({hz, hs}, 1)))));
+  return ag::tanh(fc2_->forward(fc1_->forward_relu(ag::concat({hz, hs}, 1))));
 }
 
 }  // namespace t2m::bfm
