@@ -13,6 +13,9 @@ MLP::MLP(int64_t dim, int64_t mult, Activation act, Generator& gen, int64_t out_
   fc2_ = register_module("fc2", std::make_shared<Linear>(mult * dim, out_dim == 0 ? dim : out_dim, bias, gen));
 }
 
-ag::Variable MLP::forward(const ag::Variable& x) const { return fc2_->forward(apply_activation(act_, fc1_->forward(x))); }
+ag::Variable MLP::forward(const ag::Variable& x) const {
+  if (act_ == Activation::relu) return fc2_->forward(fc1_->forward_relu(x));  // fused, the same bits
+  return fc2_->forward(apply_activation(act_, fc1_->forward(x)));
+}
 
 }  // namespace t2m::nn

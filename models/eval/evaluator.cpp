@@ -90,7 +90,7 @@ ag::Variable Evaluator::embed_text(const Tensor& ids, const Tensor& mask) const 
   const ag::Variable w = emb_->forward(ids);  // (B, L, W)
   const Tensor m = mask.to(w.dtype());
   const ag::Variable hf = tgf_->forward(w, m).last, hb = tgb_->forward(w, m, ag::Variable(), true).last;
-  return tout2_->forward(ag::relu(tout1_->forward(ag::concat({hf, hb}, 1))));
+  return tout2_->forward(tout1_->forward_relu(ag::concat({hf, hb}, 1)));
 }
 
 ag::Variable Evaluator::embed_motion(const ag::Variable& x, const Tensor& mask) const {
@@ -99,9 +99,9 @@ ag::Variable Evaluator::embed_motion(const ag::Variable& x, const Tensor& mask) 
     throw Error("Evaluator: " + std::to_string(x.size(1)) + " frames exceed max_frames " +
                 std::to_string(cfg_.max_frames));
   check_has_real(p.mask, "motion");
-  const ag::Variable h = ag::relu(move_->forward(p.x));  // (B, P, H_m)
+  const ag::Variable h = move_->forward_relu(p.x);  // (B, P, H_m)
   const ag::Variable hf = mgf_->forward(h, p.mask).last, hb = mgb_->forward(h, p.mask, ag::Variable(), true).last;
-  return mout2_->forward(ag::relu(mout1_->forward(ag::concat({hf, hb}, 1))));
+  return mout2_->forward(mout1_->forward_relu(ag::concat({hf, hb}, 1)));
 }
 
 text::RetrievalBundle load_evaluator(const std::string& path) {
