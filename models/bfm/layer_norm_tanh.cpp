@@ -50,16 +50,22 @@ void tanh_span(float* __restrict y, int64_t n) {
   for (int64_t i = 0; i < n; ++i) y[i] = tanh_f(y[i]);
 }
 
+// y [N, C] = tanh(LayerNorm(x)) and the row statistics, in blocks of rows: each block's LayerNorm (the fused kernel,
+// one thread) and then its tanh while the block is still in L1/L2 (as two passes over all of y, the tanh read y
+// back from L3: ~1 % of an fb-w1024 step). Every row's arithmetic is the kernel's, so the bits are too.
 template <typename T>
-void tanh_inplace(T* y, int64_t n) {
-  const int nt = n < kParallelGrain ? 1 : get_num_threads();
-  if constexpr (std::is_same_v<T, float>) {
-    constexpr int64_t kChunk = 4096;
+void layer_norm_tanh_rows(T* y, T* mean, T* rstd, const T* x, const T* w, const T* b, int64_t N, int64_t C, T eps) {
+  const int64_t block = std::max<int64_t>(1, 8192 / C);  // rows of <= 32 KB (float): one L1's worth
+  const int nt = N * C < kParallelGrain ? 1 : get_num_threads();
 #pragma omp parallel for schedule(static) num_threads(nt)
-    for (int64_t c = 0; c < n; c += kChunk) tanh_span(y + c, std::min(kChunk, n - c));
-  } else {
-#pragma omp parallel for schedule(static) num_threads(nt)
-    for (int64_t i = 0; i < n; ++i) y[i] = std::tanh(y[i]);
+  for (int64_t r0 = 0; r0 < N; r0 += block) {
+    const int64_t rows = std::min(block, N - r0);
+    T* yr = y + r0 * C;
+    fused::layer_norm_forward<T>(yr, mean + r0, rstd + r0, x + r0 * C, w, b, rows, C, eps);
+    if constexpr (std::is_same_v<T, float>)
+      tanh_span(yr, rows * C);
+    else
+      for (int64_t i = 0; i < rows * C; ++i) yr[i] = std::tanh(yr[i]);
   }
 }
 
@@ -95,13 +101,11 @@ ag::Variable layer_norm_tanh(const ag::Variable& x, const ag::Variable& weight, 
   const Tensor b = bias.defined() ? bias.data().contiguous() : Tensor();
   Tensor y = Tensor::empty(xc.shape(), dt), mean = Tensor::empty({N}, dt), rstd = Tensor::empty({N}, dt);
   if (dt == DType::f32) {
-    fused::layer_norm_forward<float>(y.data<float>(), mean.data<float>(), rstd.data<float>(), xc.data<float>(),
-                                     ptr<float>(w), ptr<float>(b), N, C, (float)eps);
-    tanh_inplace<float>(y.data<float>(), N * C);
+    layer_norm_tanh_rows<float>(y.data<float>(), mean.data<float>(), rstd.data<float>(), xc.data<float>(),
+                                ptr<float>(w), ptr<float>(b), N, C, (float)eps);
   } else {
-    fused::layer_norm_forward<double>(y.data<double>(), mean.data<double>(), rstd.data<double>(), xc.data<double>(),
-                                      ptr<double>(w), ptr<double>(b), N, C, eps);
-    tanh_inplace<double>(y.data<double>(), N * C);
+    layer_norm_tanh_rows<double>(y.data<double>(), mean.data<double>(), rstd.data<double>(), xc.data<double>(),
+                                 ptr<double>(w), ptr<double>(b), N, C, eps);
   }
   std::vector<ag::Variable> inputs = {x};
   if (weight.defined()) inputs.push_back(weight);
