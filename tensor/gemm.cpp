@@ -373,8 +373,10 @@ void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
   // Up to 1024 rows, with enough B panels for every thread, split by columns: each thread packs its own B panels
   // and the whole A block. On the AMD host this ran the fm-paper shapes (512-768 rows) 6-12 % faster on 2 threads
   // than the shared-B row split (`t2m bench --threads 2 --shapes 512x2048x512,...`), and 4096x512x512 5 % slower,
-  // hence the row limit.
-  const bool split_n = nt > 1 && g.M <= 1024 && n_tiles >= 4 * nt;
+  // hence the row limit. Past 512 rows, a product with N <= M / 2 still splits by rows: its B block is small to
+  // share, while every thread reading and packing all of A cost 2-7 % on the Intel host (`t2m bench --threads 2
+  // --shapes 1024x256x1024:nt,1024x512x1024:nt,768x256x1024:nt,1024x256x512,...`, both splits forced in turn).
+  const bool split_n = nt > 1 && g.M <= 1024 && n_tiles >= 4 * nt && (g.M <= 512 || 2 * g.N > g.M);
   const bool split_m = !split_n && (nt == 1 || m_tiles >= 4 * nt || m_tiles >= n_tiles);
   // Stealing between column shares needs the same rounds (K blocks) in every thread: each share in one NC block.
   const bool steal_n = split_n && ceil_div(n_tiles, nt) * nr <= NC;
