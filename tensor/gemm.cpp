@@ -133,21 +133,29 @@ void check_args(const char* op, const GemmArgs<T>& g) {
 
 // ---- C = beta C (K == 0 or alpha == 0) -----------------------------------------------------------------------
 
-template <typename T>
-void scale_c(const GemmArgs<T>& g) {
+// f(c, j0, n) over every row of C by runs of contiguous columns (the whole row when C is plain): c points at
+// column j0 of the row, n columns long.
+template <typename T, typename F>
+void for_each_c_run(const GemmArgs<T>& g, F f) {
   for (int64_t i = 0; i < g.M; ++i)
-    for (int64_t j0 = 0; j0 < g.N;) {  // by runs of contiguous columns (the whole row when C is plain)
+    for (int64_t j0 = 0; j0 < g.N;) {
       const int64_t n = std::min(g.N - j0, segment_left(g.cc, j0));
-      T* c = g.c_at(i, j0);
-      if (g.bias) {
-        std::copy(g.bias + j0, g.bias + j0 + n, c);
-      } else if (g.beta == T(0)) {
-        std::fill(c, c + n, T(0));
-      } else if (g.beta != T(1)) {
-        for (int64_t j = 0; j < n; ++j) c[j] *= g.beta;
-      }
+      f(g.c_at(i, j0), j0, n);
       j0 += n;
     }
+}
+
+template <typename T>
+void scale_c(const GemmArgs<T>& g) {
+  for_each_c_run(g, [&](T* c, int64_t j0, int64_t n) {
+    if (g.bias) {
+      std::copy(g.bias + j0, g.bias + j0 + n, c);
+    } else if (g.beta == T(0)) {
+      std::fill(c, c + n, T(0));
+    } else if (g.beta != T(1)) {
+      for (int64_t j = 0; j < n; ++j) c[j] *= g.beta;
+    }
+  });
 }
 
 // ---- small shapes: no packing ---------------------------------------------------------------------------------
@@ -242,12 +250,7 @@ void relu_run(T* c, int64_t n) {
 // The ReLU over all of C, for the paths without a tile epilogue (small shapes, K == 0).
 template <typename T>
 void relu_c(const GemmArgs<T>& g) {
-  for (int64_t i = 0; i < g.M; ++i)
-    for (int64_t j0 = 0; j0 < g.N;) {
-      const int64_t n = std::min(g.N - j0, segment_left(g.cc, j0));
-      relu_run(g.c_at(i, j0), n);
-      j0 += n;
-    }
+  for_each_c_run(g, [](T* c, int64_t, int64_t n) { relu_run(c, n); });
 }
 
 // ---- the packed path ------------------------------------------------------------------------------------------
@@ -261,6 +264,10 @@ void macro_kernel(const MicroKernel<T>& uk, int64_t mc, int64_t nc, int64_t kc, 
                   int64_t ldc, const GemmColumns& cs, int64_t j0, T alpha, T beta, const T* bias, bool relu) {
   const int mr = uk.mr, nr = uk.nr;
   alignas(64) T tile[32 * 64];
+  auto relu_rows = [&](T* cc, int64_t m) {  // the ReLU epilogue on m rows of a tile stored straight into C
+    if (relu)
+      for (int64_t i = 0; i < m; ++i) relu_run(cc + i * ldc, nr);
+  };
   // One row of an edge tile from the local tile t: n columns at row.
   auto store_row = [&](T* row, const T* t, const T* bias_j, int64_t n) {
     if (beta == T(0) && bias_j) {
@@ -287,15 +294,13 @@ void macro_kernel(const MicroKernel<T>& uk, int64_t mc, int64_t nc, int64_t kc, 
             __builtin_prefetch(cc + i * ldc + nr - 1, 1);
           }
         uk.kernel(kc, a, b, cc, ldc, alpha, beta, bias_j);
-        if (relu)
-          for (int i = 0; i < mr; ++i) relu_run(cc + i * ldc, nr);
+        relu_rows(cc, mr);
         continue;
       }
       const int s = !one_run || n < nr ? -1 : m == uk.short_m[0] ? 0 : m == uk.short_m[1] ? 1 : -1;
       if (s >= 0 && uk.short_kernel[s]) {  // a short row panel of a size with its own kernel: straight into C
         uk.short_kernel[s](kc, a, b, cc, ldc, alpha, beta, bias_j);
-        if (relu)
-          for (int64_t i = 0; i < m; ++i) relu_run(cc + i * ldc, nr);
+        relu_rows(cc, m);
         continue;
       }
       uk.kernel(kc, a, b, tile, nr, T(1), T(0), nullptr);
