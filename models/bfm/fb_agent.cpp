@@ -154,15 +154,18 @@ FbUpdateStats FbAgent::update_fb(const FbBatch& b, Generator& gen) {
   Tensor tM;
   {  // target successor measure: a' ~ pi(s', z), pess(F_t(s', a', z) B_t(s')^T)
     ag::NoGradGuard ng;
-    const ag::Variable a2 = noisy_action(actor_->forward(s2, z), noise);
+    const ag::Variable s2z = ag::concat({s2, z}, 1);  // joined once for the actor and every member
+    const ag::Variable a2 = noisy_action(actor_->forward_joined(s2z, s2), noise);
+    const ag::Variable s2a2 = ag::concat({s2, a2}, 1);
     std::vector<ag::Variable> ft;
-    for (const auto& f : Ft_) ft.push_back(f->forward(s2, a2, z));
+    for (const auto& f : Ft_) ft.push_back(f->forward_joined(s2z, s2a2));
     tM = pessimistic_target_M(ag::stack(ft, 0).data(), Bt_->forward(s2).data(), cfg_.pessimism);
   }
   for (const auto& f : F_) clear_grads(*f);
   clear_grads(*B_);
   std::vector<ag::Variable> fs;
-  for (const auto& f : F_) fs.push_back(f->forward(s, a, z));
+  const ag::Variable sz = ag::concat({s, z}, 1), sa = ag::concat({s, a}, 1);
+  for (const auto& f : F_) fs.push_back(f->forward_joined(sz, sa));
   const ag::Variable Bv = B_->forward(s2);
   FbLossParts td, orth;
   ag::Variable loss = fb_td_loss(ag::stack(fs, 0), Bv, tM, gamma, &td);
@@ -200,9 +203,11 @@ FbUpdateStats FbAgent::update_actor(const FbBatch& b, Generator& gen) {
   for (const auto& f : F_) set_requires_grad(*f, false);
   FbUpdateStats st;
   try {
-    const ag::Variable act = noisy_action(actor_->forward(s, z), noise);
+    const ag::Variable sz = ag::concat({s, z}, 1);
+    const ag::Variable act = noisy_action(actor_->forward_joined(sz, s), noise);
+    const ag::Variable sact = ag::concat({s, act}, 1);
     std::vector<ag::Variable> fs;
-    for (const auto& f : F_) fs.push_back(f->forward(s, act, z));
+    for (const auto& f : F_) fs.push_back(f->forward_joined(sz, sact));
     double qm = 0;
     ag::Variable loss = actor_q_loss(q_values(ag::stack(fs, 0), z), cfg_.pessimism, cfg_.q_normalize, &qm);
     if (bc) {

@@ -60,8 +60,15 @@ ag::Variable ForwardMap::forward(const ag::Variable& s, const ag::Variable& a, c
   check_last("ForwardMap", "z", z, d_);
   check_rows("ForwardMap", s, a);
   check_rows("ForwardMap", s, z);
-  const ag::Variable hz = embed_z_->forward(ag::concat({s, z}, 1));
-  const ag::Variable hsa = embed_sa_->forward(ag::concat({s, a}, 1));
+  return forward_joined(ag::concat({s, z}, 1), ag::concat({s, a}, 1));
+}
+
+ag::Variable ForwardMap::forward_joined(const ag::Variable& sz, const ag::Variable& sa) const {
+  check_last("ForwardMap", "[s, z]", sz, D_ + d_);
+  check_last("ForwardMap", "[s, a]", sa, D_ + A_);
+  check_rows("ForwardMap", sz, sa);
+  const ag::Variable hz = embed_z_->forward(sz);
+  const ag::Variable hsa = embed_sa_->forward(sa);
   return fc2_->forward(fc1_->forward_relu(ag::concat({hz, hsa}, 1)));
 }
 
@@ -94,7 +101,14 @@ ag::Variable Actor::forward(const ag::Variable& s, const ag::Variable& z) const 
   check_last("Actor", "s", s, D_);
   check_last("Actor", "z", z, d_);
   check_rows("Actor", s, z);
-  const ag::Variable hz = embed_z_->forward(ag::concat({s, z}, 1));
+  return forward_joined(ag::concat({s, z}, 1), s);
+}
+
+ag::Variable Actor::forward_joined(const ag::Variable& sz, const ag::Variable& s) const {
+  check_last("Actor", "[s, z]", sz, D_ + d_);
+  check_last("Actor", "s", s, D_);
+  check_rows("Actor", sz, s);
+  const ag::Variable hz = embed_z_->forward(sz);
   const ag::Variable hs = embed_s_->forward(s);
   return ag::tanh(fc2_->forward(fc1_->forward_relu(ag::concat({hz, hs}, 1))));
 }

@@ -12,6 +12,8 @@
 // Actor(D, A, d, h): mu(s, z) = tanh(fc2(relu(fc1([embed_z([s, z]), embed_s(s)]))))   (the policy mean; the std
 //   is fixed by the agent). children "embed_z" (D+d -> h/2), "embed_s" (D -> h/2), "fc1" Linear(h, h),
 //   "fc2" Linear(h, A). s [N, D], z [N, d] -> [N, A] in (-1, 1).
+// forward_joined: the same networks from inputs already joined ([s, z] [N, D+d], [s, a] [N, D+A]): a caller that
+//   evaluates several members (or the actor and F) on one batch joins each input pair once (the same bits).
 // LayerNorm -> Tanh runs as one fused op (layer_norm_tanh.h); the "ln" child holds its weight and bias.
 // Initialisation: PyTorch's default Linear init from the Generator, in registration order; LayerNorm 1/0.
 // Errors (t2m::Error naming the network): dims < 1, h odd or < 2; forward inputs whose last dims do not match.
@@ -41,6 +43,7 @@ class ForwardMap : public nn::Module {
  public:
   ForwardMap(int64_t obs_dim, int64_t action_dim, int64_t z_dim, int64_t h, Generator& gen);
   ag::Variable forward(const ag::Variable& s, const ag::Variable& a, const ag::Variable& z) const;
+  ag::Variable forward_joined(const ag::Variable& sz, const ag::Variable& sa) const;  // [s, z], [s, a]
 
  private:
   int64_t D_, A_, d_;
@@ -64,6 +67,7 @@ class Actor : public nn::Module {
  public:
   Actor(int64_t obs_dim, int64_t action_dim, int64_t z_dim, int64_t h, Generator& gen);
   ag::Variable forward(const ag::Variable& s, const ag::Variable& z) const;  // the mean mu(s, z)
+  ag::Variable forward_joined(const ag::Variable& sz, const ag::Variable& s) const;  // [s, z], s
 
  private:
   int64_t D_, A_, d_;
