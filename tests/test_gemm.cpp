@@ -216,6 +216,22 @@ TEST(Gemm, BatchedWithBroadcastStrides) {
   t2m::set_num_threads(saved);
 }
 
+// Random operands of an M x N x K product (entries in [-1, 1), A before B before the bias, from one seed) and the
+// row strides of op(A) = A^T when ta, op(B) = B^T when tb.
+template <typename T>
+struct Operands {
+  std::vector<T> A, B, bias;
+  int64_t lda, ldb;
+  Operands(int64_t M, int64_t N, int64_t K, bool ta, bool tb, uint32_t seed)
+      : A(size_t(std::max<int64_t>(1, M * K))), B(size_t(std::max<int64_t>(1, K * N))), bias(size_t(N)),
+        lda(ta ? M : std::max<int64_t>(1, K)), ldb(tb ? std::max<int64_t>(1, K) : N) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    for (auto* v : {&A, &B, &bias})
+      for (auto& x : *v) x = T(u(rng));
+  }
+};
+
 // gemm_bias (the bias joins in the final store) gives the bits of the two-pass form it replaces: C filled with the
 // bias rows, then gemm with beta = 1; across the small-shape path, edge tiles, short row panels, two K blocks
 // (kc 512), alpha != 1, both kernels and 1 and 2 threads.
@@ -231,14 +247,8 @@ void bias_matches_two_pass() {
           for (int threads : {1, 2}) {
             t2m::set_num_threads(threads);
             const bool ta = t & 1, tb = t & 2;
-            std::mt19937 rng(uint32_t(s.M * 7 + s.N + t));
-            std::uniform_real_distribution<double> u(-1.0, 1.0);
-            std::vector<T> A(size_t(std::max<int64_t>(1, s.M * s.K))), B(size_t(std::max<int64_t>(1, s.K * s.N)));
-            std::vector<T> bias(size_t(s.N));
-            for (auto& v : A) v = T(u(rng));
-            for (auto& v : B) v = T(u(rng));
-            for (auto& v : bias) v = T(u(rng));
-            const int64_t lda = ta ? s.M : std::max<int64_t>(1, s.K), ldb = tb ? std::max<int64_t>(1, s.K) : s.N;
+            const Operands<T> o(s.M, s.N, s.K, ta, tb, uint32_t(s.M * 7 + s.N + t));
+            const auto& [A, B, bias, lda, ldb] = o;
             std::vector<T> fused(size_t(s.M * s.N), std::numeric_limits<T>::quiet_NaN()), two(size_t(s.M * s.N));
             for (int64_t i = 0; i < s.M; ++i) std::copy(bias.begin(), bias.end(), two.begin() + i * s.N);
             t2m::gemm_bias(ta, tb, s.M, s.N, s.K, alpha, A.data(), lda, B.data(), ldb, bias.data(), fused.data(),
@@ -275,15 +285,9 @@ void bias_relu_matches_two_pass() {
         for (int threads : {1, 2}) {
           t2m::set_num_threads(threads);
           const bool ta = t & 1, tb = t & 2;
-          std::mt19937 rng(uint32_t(s.M * 5 + s.N + t));
-          std::uniform_real_distribution<double> u(-1.0, 1.0);
-          std::vector<T> A(size_t(std::max<int64_t>(1, s.M * s.K))), B(size_t(std::max<int64_t>(1, s.K * s.N)));
-          std::vector<T> bias(size_t(s.N));
-          for (auto& v : A) v = T(u(rng));
-          for (auto& v : B) v = T(u(rng));
-          for (auto& v : bias) v = T(u(rng));
-          if (s.K > 0) A[0] = std::numeric_limits<T>::quiet_NaN();
-          const int64_t lda = ta ? s.M : std::max<int64_t>(1, s.K), ldb = tb ? std::max<int64_t>(1, s.K) : s.N;
+          Operands<T> o(s.M, s.N, s.K, ta, tb, uint32_t(s.M * 5 + s.N + t));
+          if (s.K > 0) o.A[0] = std::numeric_limits<T>::quiet_NaN();
+          const auto& [A, B, bias, lda, ldb] = o;
           std::vector<T> fused(size_t(s.M * s.N), T(7)), two(size_t(s.M * s.N), T(7));
           t2m::gemm_bias_relu(ta, tb, s.M, s.N, s.K, T(1), A.data(), lda, B.data(), ldb, bias.data(), fused.data(),
                               s.N);
