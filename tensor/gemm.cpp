@@ -1,6 +1,6 @@
-// gemm.cpp — the GEMM driver: argument checks, run-time kernel choice, the GotoBLAS/BLIS loop nest over packed
-// panels (see gemm_kernel.h for the layouts), the thread split, a cheap unpacked path for small shapes, and
-// the batched entry points.
+// gemm.cpp — the GEMM driver: run-time kernel choice, the GotoBLAS/BLIS loop nest over packed panels (see
+// gemm_kernel.h for the layouts), the thread split, a cheap unpacked path for small shapes, the ReLU epilogue, and
+// the entry points (their argument checks are in gemm_args.h).
 #include "tensor/gemm.h"
 
 #include <omp.h>
@@ -16,6 +16,7 @@
 
 #include "tensor/allocator.h"
 #include "tensor/cpu_features.h"
+#include "tensor/gemm_args.h"
 #include "tensor/gemm_columns.h"
 #include "tensor/gemm_kernel.h"
 #include "tensor/parallel.h"
@@ -24,35 +25,11 @@
 namespace t2m {
 namespace {
 
+using gemm_detail::check_args;
+using gemm_detail::GemmArgs;
 using gemm_detail::MicroKernel;
 using gemm_detail::segment_col;
 using gemm_detail::segment_left;
-
-// One C = alpha op(A) op(B) + beta C problem.
-template <typename T>
-struct GemmArgs {
-  bool ta, tb;
-  int64_t M, N, K;
-  T alpha;
-  const T* A;
-  int64_t lda;
-  const T* B;
-  int64_t ldb;
-  T beta;
-  T* C;
-  int64_t ldc;
-  const T* bias = nullptr;  // length N, added to every row of C; only with beta == 0 (gemm_bias)
-  bool relu = false;        // C = max(C, 0) once the product is complete (gemm_bias_relu)
-  GemmColumns ac{}, bc{}, cc{};  // the stored matrices' column segments (gemm_segmented); plain by default
-  bool segmented() const { return ac.len || bc.len || cc.len; }
-  const T* a_at(int64_t i, int64_t k) const {  // &op(A)[i,k]
-    return ta ? A + k * lda + segment_col(ac, i) : A + i * lda + segment_col(ac, k);
-  }
-  const T* b_at(int64_t k, int64_t j) const {  // &op(B)[k,j]
-    return tb ? B + j * ldb + segment_col(bc, k) : B + k * ldb + segment_col(bc, j);
-  }
-  T* c_at(int64_t i, int64_t j) const { return C + i * ldc + segment_col(cc, j); }
-};
 
 int64_t ceil_div(int64_t a, int64_t b) { return (a + b - 1) / b; }
 int64_t round_up(int64_t a, int64_t b) { return ceil_div(a, b) * b; }
@@ -104,31 +81,6 @@ const MicroKernel<float>& select_kernel<float>() {
 template <>
 const MicroKernel<double>& select_kernel<double>() {
   return chosen_kernel() == kAvx512 ? gemm_detail::avx512_kernel_f64() : gemm_detail::avx2_kernel_f64();
-}
-
-// ---- checks --------------------------------------------------------------------------------------------------
-
-template <typename T>
-void check_args(const char* op, const GemmArgs<T>& g) {
-  auto fail = [&](const std::string& what) {
-    throw Error(std::string(op) + ": " + what + " (trans_a=" + std::to_string(g.ta) + " trans_b=" +
-                std::to_string(g.tb) + " M=" + std::to_string(g.M) + " N=" + std::to_string(g.N) +
-                " K=" + std::to_string(g.K) + " lda=" + std::to_string(g.lda) + " ldb=" + std::to_string(g.ldb) +
-                " ldc=" + std::to_string(g.ldc) + ")");
-  };
-  if (g.M < 0 || g.N < 0 || g.K < 0) fail("negative dimension");
-  for (const auto& [name, s] : {std::pair{"A", g.ac}, std::pair{"B", g.bc}, std::pair{"C", g.cc}})
-    if (s.len < 0 || (s.len > 0 && s.stride < 1))
-      fail(std::string("column segments of ") + name + ": len " + std::to_string(s.len) + ", stride " +
-           std::to_string(s.stride) + " (len >= 0; stride >= 1 when len > 0)");
-  // The row length each row stride must hold: the stored column count, or one segment's.
-  auto row_len = [](int64_t cols, const GemmColumns& s) { return s.len ? std::min(cols, s.len) : cols; };
-  const int64_t a_cols = row_len(g.ta ? g.M : g.K, g.ac), b_cols = row_len(g.tb ? g.K : g.N, g.bc);
-  if (g.lda < std::max<int64_t>(1, a_cols)) fail("lda smaller than the row length of A (" + std::to_string(a_cols) + ")");
-  if (g.ldb < std::max<int64_t>(1, b_cols)) fail("ldb smaller than the row length of B (" + std::to_string(b_cols) + ")");
-  if (g.ldc < std::max<int64_t>(1, row_len(g.N, g.cc))) fail("ldc smaller than the row length of C");
-  if (g.M > 0 && g.N > 0 && !g.C) fail("C is null");
-  if (g.M > 0 && g.N > 0 && g.K > 0 && g.alpha != T(0) && (!g.A || !g.B)) fail("A or B is null");
 }
 
 // ---- C = beta C (K == 0 or alpha == 0) -----------------------------------------------------------------------
