@@ -3,6 +3,7 @@
 // determinism at 2 threads and bad arguments.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "tensor/fused/group_norm.h"
@@ -234,6 +235,35 @@ TEST(FusedNormDeterminism, RepeatedRunsAtTwoThreadsAreBitwiseEqual) {
   t2m::set_num_threads(saved);
   EXPECT_TRUE(bitwise_equal(a, a2));
   expect_float_matches(a, to_double(one), 1e-5, "1 vs 2 threads");
+}
+
+// layer_norm_backward with tanh_out (the backward of tanh(LayerNorm(x))) gives the bits of forming
+// g (1 - y^2) in a pass of its own and running the plain backward on it, with and without affine, 1 and 2 threads.
+TEST(LayerNorm, BackwardThroughTanhMatchesTwoPasses) {
+  const int saved = t2m::get_num_threads();
+  const int64_t N = 300, C = 130;  // > kParallelGrain elements
+  const auto x = to_float(randn(N * C, 41)), g = to_float(randn(N * C, 42));
+  const auto w = to_float(randn(C, 43)), b = to_float(randn(C, 44));
+  for (bool affine : {true, false})
+    for (int threads : {1, 2}) {
+      t2m::set_num_threads(threads);
+      const float* wp = affine ? w.data() : nullptr;
+      std::vector<float> y(N * C), mean(N), rstd(N);
+      layer_norm_forward<float>(y.data(), mean.data(), rstd.data(), x.data(), wp, affine ? b.data() : nullptr, N, C,
+                                1e-5f);
+      for (auto& v : y) v = std::tanh(v);
+      std::vector<float> dpre(N * C), dx1(N * C), dw1(C, 0), db1(C, 0), dx2(N * C), dw2(C, 0), db2(C, 0);
+      for (int64_t i = 0; i < N * C; ++i) dpre[i] = g[i] * (1.0f - y[i] * y[i]);
+      layer_norm_backward<float>(dx1.data(), affine ? dw1.data() : nullptr, affine ? db1.data() : nullptr,
+                                 dpre.data(), x.data(), wp, mean.data(), rstd.data(), N, C);
+      layer_norm_backward<float>(dx2.data(), affine ? dw2.data() : nullptr, affine ? db2.data() : nullptr, g.data(),
+                                 x.data(), wp, mean.data(), rstd.data(), N, C, y.data());
+      EXPECT_TRUE(bitwise_equal(dx1, dx2)) << "affine " << affine << " threads " << threads;
+      EXPECT_TRUE(bitwise_equal(dw1, dw2));
+      EXPECT_TRUE(bitwise_equal(db1, db2));
+      EXPECT_TRUE(std::any_of(dx2.begin(), dx2.end(), [](float v) { return v != 0.0f; }));
+    }
+  t2m::set_num_threads(saved);
 }
 
 TEST(FusedNormErrors, BadArgumentsThrow) {

@@ -1,5 +1,6 @@
-// layer_norm_tanh.cpp — forward: fused LayerNorm kernel, then tanh in place; backward: (1 - y^2) mask, then
-// the fused LayerNorm backward (input gradient written, weight/bias gradients accumulated into fresh zeros).
+// layer_norm_tanh.cpp — forward: the fused LayerNorm kernel, then tanh in place, a block of rows at a time;
+// backward: the fused LayerNorm backward with the tanh's (1 - y^2) applied to each row first (tanh_out; input
+// gradient written, weight/bias gradients accumulated into fresh zeros).
 #include "models/bfm/layer_norm_tanh.h"
 
 #include <bit>
@@ -69,14 +70,6 @@ void layer_norm_tanh_rows(T* y, T* mean, T* rstd, const T* x, const T* w, const 
   }
 }
 
-// d[i] = g[i] (1 - y[i]^2)
-template <typename T>
-void tanh_grad(T* d, const T* g, const T* y, int64_t n) {
-  const int nt = n < kParallelGrain ? 1 : get_num_threads();
-#pragma omp parallel for simd schedule(static) num_threads(nt)
-  for (int64_t i = 0; i < n; ++i) d[i] = g[i] * ((T)1 - y[i] * y[i]);
-}
-
 template <typename T>
 T* ptr(const Tensor& t) { return t.defined() ? const_cast<T*>(t.data<T>()) : nullptr; }
 
@@ -116,28 +109,21 @@ ag::Variable layer_norm_tanh(const ag::Variable& x, const ag::Variable& weight, 
       "layer_norm_tanh", y, inputs,
       [xc, y, mean, rstd, w, N, C, has_w, has_b](const Tensor& g, const std::vector<bool>& need) {
         const DType dt = xc.dtype();
-        const Tensor gc = g.contiguous();
-        Tensor dpre = Tensor::empty(xc.shape(), dt);
         Tensor dx = need[0] ? Tensor::empty(xc.shape(), dt) : Tensor();
         const size_t iw = 1, ib = has_w ? 2 : 1;
         Tensor dw = has_w && need[iw] ? Tensor::zeros({C}, dt) : Tensor();
         Tensor db = has_b && need[ib] ? Tensor::zeros({C}, dt) : Tensor();
-        if (dt == DType::f32) {
-          tanh_grad<float>(dpre.data<float>(), gc.data<float>(), y.data<float>(), N * C);
-          if (need[0] || dw.defined() || db.defined()) {
-            Tensor dxs = dx.defined() ? dx : Tensor::empty(xc.shape(), dt);
-            fused::layer_norm_backward<float>(dxs.data<float>(), ptr<float>(dw), ptr<float>(db), dpre.data<float>(),
+        if (need[0] || dw.defined() || db.defined()) {  // the tanh's backward runs inside the LayerNorm's (tanh_out)
+          const Tensor gc = g.contiguous();
+          Tensor dxs = dx.defined() ? dx : Tensor::empty(xc.shape(), dt);
+          if (dt == DType::f32)
+            fused::layer_norm_backward<float>(dxs.data<float>(), ptr<float>(dw), ptr<float>(db), gc.data<float>(),
                                               xc.data<float>(), ptr<float>(w), mean.data<float>(),
-                                              rstd.data<float>(), N, C);
-          }
-        } else {
-          tanh_grad<double>(dpre.data<double>(), gc.data<double>(), y.data<double>(), N * C);
-          if (need[0] || dw.defined() || db.defined()) {
-            Tensor dxs = dx.defined() ? dx : Tensor::empty(xc.shape(), dt);
+                                              rstd.data<float>(), N, C, y.data<float>());
+          else
             fused::layer_norm_backward<double>(dxs.data<double>(), ptr<double>(dw), ptr<double>(db),
-                                               dpre.data<double>(), xc.data<double>(), ptr<double>(w),
-                                               mean.data<double>(), rstd.data<double>(), N, C);
-          }
+                                               gc.data<double>(), xc.data<double>(), ptr<double>(w),
+                                               mean.data<double>(), rstd.data<double>(), N, C, y.data<double>());
         }
         std::vector<Tensor> out = {dx};
         if (has_w) out.push_back(dw);

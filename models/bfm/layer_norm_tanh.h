@@ -1,7 +1,7 @@
 // layer_norm_tanh.h — tanh(LayerNorm(x)) as one differentiable op: the "Linear -> LayerNorm -> Tanh" stem of
 // every FB network (fb_networks.h). One pass forward (the LayerNorm kernel of tensor/fused/layer_norm.h, then a
-// vectorisable tanh in place), one pass backward (g (1 - y^2), then the LayerNorm backward). Saves x, y and the
-// row statistics, not the normalised pre-activation.
+// vectorisable tanh in place), one pass backward (the LayerNorm backward, each row's g (1 - y^2) formed on the
+// fly). Saves x, y and the row statistics, not the normalised pre-activation.
 //
 // layer_norm_tanh(x, weight, bias, eps): x [..., C]; weight, bias [C] or undefined -> y [..., C].
 // float32 uses tanh(u) = sign(u) (1 - 2 / (e^{2|u|} + 1)) with a polynomial exp (absolute error < 3e-7 against

@@ -56,7 +56,7 @@ void layer_norm_forward(T* out, T* mean, T* rstd, const T* inp, const T* weight,
 
 template <typename T>
 void layer_norm_backward(T* dinp, T* dweight, T* dbias, const T* dout, const T* inp, const T* weight,
-                         const T* mean, const T* rstd, int64_t N, int64_t C) {
+                         const T* mean, const T* rstd, int64_t N, int64_t C, const T* tanh_out) {
   const char* op = "layer_norm_backward";
   check_dim(op, "N", N, 0);
   check_dim(op, "C", C, 1);
@@ -76,9 +76,16 @@ void layer_norm_backward(T* dinp, T* dweight, T* dbias, const T* dout, const T* 
     const auto [i0, i1] = row_range(N, tid, omp_get_num_threads());
     T* pw = partial ? partial + (int64_t)tid * 2 * C : nullptr;
     T* pb = pw ? pw + C : nullptr;
+    T* dt = tanh_out ? fused_scratch<T>(1, C) : nullptr;  // this row's gradient before the tanh
     for (int64_t i = i0; i < i1; ++i) {
       const T* x = inp + i * C;
       const T* dy = dout + i * C;
+      if (dt) {
+        const T* y = tanh_out + i * C;
+#pragma omp simd
+        for (int64_t c = 0; c < C; ++c) dt[c] = dy[c] * ((T)1 - y[c] * y[c]);
+        dy = dt;
+      }
       T* dx = dinp + i * C;
       const T m = mean[i], r = rstd[i];
       // The weight test is outside the loops: with it inside, GCC vectorised only the affine version of the sums
@@ -130,8 +137,8 @@ template void layer_norm_forward<float>(float*, float*, float*, const float*, co
 template void layer_norm_forward<double>(double*, double*, double*, const double*, const double*, const double*,
                                          int64_t, int64_t, double);
 template void layer_norm_backward<float>(float*, float*, float*, const float*, const float*, const float*,
-                                         const float*, const float*, int64_t, int64_t);
+                                         const float*, const float*, int64_t, int64_t, const float*);
 template void layer_norm_backward<double>(double*, double*, double*, const double*, const double*, const double*,
-                                          const double*, const double*, int64_t, int64_t);
+                                          const double*, const double*, int64_t, int64_t, const double*);
 
 }  // namespace t2m::fused

@@ -19,9 +19,11 @@ void layer_norm_forward(T* out, T* mean, T* rstd, const T* inp, const T* weight,
                         int64_t C, T eps);
 
 // dout, inp (N, C); weight (C) or null; mean/rstd (N) from the forward. dinp (N, C) written;
-// dweight/dbias (C) accumulated (+=), each may be null.
+// dweight/dbias (C) accumulated (+=), each may be null. tanh_out (N, C) or null: the forward's output went on
+// through tanh (tanh_out = tanh(out)) and dout is the gradient of tanh_out; each row of dout is then multiplied by
+// 1 - tanh_out^2 first, in a row buffer (the tanh's backward without an (N, C) intermediate; the same bits).
 template <typename T>
 void layer_norm_backward(T* dinp, T* dweight, T* dbias, const T* dout, const T* inp, const T* weight,
-                         const T* mean, const T* rstd, int64_t N, int64_t C);
+                         const T* mean, const T* rstd, int64_t N, int64_t C, const T* tanh_out = nullptr);
 
 }  // namespace t2m::fused
