@@ -4,7 +4,8 @@
 // gradients (=) and ACCUMULATES parameter gradients (+=); a parameter-gradient pointer may be null to skip it;
 // rows are split across t2m::get_num_threads() OpenMP threads when the work exceeds t2m::kParallelGrain, and
 // parameter-gradient partials are reduced per thread in a fixed order (bitwise deterministic per thread count).
-// Scratch: parameter-gradient partials of nthreads * 2C elements in thread-local cached memory (scratch.h).
+// Scratch: parameter-gradient partials of nthreads * 2C elements in thread-local cached memory (scratch.h), and
+// with tanh_out one row of C per thread (slot 1).
 // Errors: t2m::Error for N < 0, C < 1, eps < 0 or a null required pointer.
 #pragma once
 #include <cstdint>
