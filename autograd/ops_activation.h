@@ -10,6 +10,9 @@
 //   seed gives the same mask for any thread count); the generator advances exactly as that draw does.
 //   When not training or p == 0, x is returned as is (same Variable, no copy, generator untouched).
 //   The gradient is g * mask / (1 - p).
+// residual_dropout(x, h, p, gen, training) = add(x, dropout(h, p, gen, training)) in one pass (a residual branch
+//   with dropout: no separate dropout output is written and re-read): the same bits, the same mask and the same
+//   generator advance. Falls back to the two ops when x and h differ in shape or dtype (broadcasting add).
 // Errors (t2m::Error naming the op and the shape): non-float dtype; dropout with p outside [0, 1].
 #pragma once
 #include "autograd/variable.h"
@@ -20,5 +23,6 @@ namespace t2m::ag {
 Variable gelu_tanh(const Variable& x);
 Variable silu(const Variable& x);
 Variable dropout(const Variable& x, double p, Generator& gen, bool training);
+Variable residual_dropout(const Variable& x, const Variable& h, double p, Generator& gen, bool training);
 
 }  // namespace t2m::ag

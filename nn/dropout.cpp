@@ -15,4 +15,8 @@ ag::Variable Dropout::forward(const ag::Variable& x, Generator& gen) const {
   return ag::dropout(x, p_, gen, is_training());
 }
 
+ag::Variable Dropout::forward_residual(const ag::Variable& x, const ag::Variable& h, Generator& gen) const {
+  return ag::residual_dropout(x, h, p_, gen, is_training());
+}
+
 }  // namespace t2m::nn

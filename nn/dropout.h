@@ -14,6 +14,8 @@ class Dropout : public Module {
   explicit Dropout(double p);
   ag::Variable forward(const ag::Variable& x, Generator& gen) const;
   ag::Variable operator()(const ag::Variable& x, Generator& gen) const { return forward(x, gen); }
+  // x + forward(h, gen) as one op (ag::residual_dropout): the same values, mask and generator advance.
+  ag::Variable forward_residual(const ag::Variable& x, const ag::Variable& h, Generator& gen) const;
   double p() const { return p_; }
 
  private:

@@ -1,8 +1,7 @@
 // res_conv_block.cpp — GroupNorm -> ReLU -> causal dilated conv k3 -> GroupNorm -> ReLU -> conv k1 -> dropout,
-// plus the skip connection (each GroupNorm -> ReLU is one fused op).
+// plus the skip connection (each GroupNorm -> ReLU is one fused op, and so are the dropout and the skip's add).
 #include "nn/res_conv_block.h"
 
-#include "autograd/ops_elementwise.h"
 
 namespace t2m::nn {
 
@@ -22,7 +21,7 @@ ResConvBlock::ResConvBlock(int64_t channels, int64_t dilation, Generator& gen, i
 ag::Variable ResConvBlock::forward(const ag::Variable& x, Generator& gen) const {
   ag::Variable h = c1_->forward(n1_->forward_relu(x));
   h = c2_->forward(n2_->forward_relu(h));
-  return ag::add(x, drop_->forward(h, gen));
+  return drop_->forward_residual(x, h, gen);
 }
 
 }  // namespace t2m::nn

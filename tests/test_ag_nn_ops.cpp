@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
+#include <utility>
 
 #include "autograd/gradcheck.h"
 #include "autograd/ops_activation.h"
@@ -301,6 +303,52 @@ TEST(AgDropout, EvalIdentityGradientAndEdgeCases) {
   }, {randn({3, 5}, 37)});
   expect_error([&] { ag::dropout(x, 1.5, g, true); }, {"dropout", "1.5", "[4, 6]"});
   expect_error([&] { ag::dropout(x, -0.1, g, false); }, {"dropout", "p must be"});
+}
+
+TEST(AgDropout, ResidualFormIsAddOfDropoutBitForBit) {
+  // float32 large (threaded, several Philox chunks, a ragged tail) and small; p = 1e-12 keeps every element.
+  for (const auto& [shape, p] : {std::pair{Shape{300, 301}, 0.1}, std::pair{Shape{3, 7}, 0.3},
+                                 std::pair{Shape{5, 77}, 1e-12}, std::pair{Shape{4, 9}, 1.0}}) {
+    const Tensor x = randn(shape, 50, DType::f32), h = randn(shape, 51, DType::f32);
+    const Tensor g = randn(shape, 52, DType::f32);
+    ag::Variable xa(x, true), ha(h, true), xb(x, true), hb(h, true);
+    Generator g1(21), g2(21);
+    ag::Variable y1 = ag::residual_dropout(xa, ha, p, g1, true);
+    ag::Variable y2 = ag::add(xb, ag::dropout(hb, p, g2, true));
+    EXPECT_EQ(g1.offset(), g2.offset());
+    ASSERT_EQ(y1.shape(), y2.shape());
+    EXPECT_EQ(std::memcmp(y1.data().data<float>(), y2.data().data<float>(), sizeof(float) * x.numel()), 0);
+    ag::sum(ag::mul(y1, ag::Variable(g))).backward();
+    ag::sum(ag::mul(y2, ag::Variable(g))).backward();
+    EXPECT_EQ(std::memcmp(xa.grad().data<float>(), xb.grad().data<float>(), sizeof(float) * x.numel()), 0);
+    EXPECT_EQ(std::memcmp(ha.grad().data<float>(), hb.grad().data<float>(), sizeof(float) * x.numel()), 0);
+  }
+  // The value: x + mask * h / (1 - p), the mask the Bernoulli draw.
+  const Tensor x = randn({6, 40}, 53), h = randn({6, 40}, 54);
+  Generator gr(8), ref(8);
+  const Tensor keep = rand_bernoulli({6, 40}, ref, 0.75, DType::f64);
+  EXPECT_LT(max_abs_diff(ag::residual_dropout(ag::Variable(x), ag::Variable(h), 0.25, gr, true).data(),
+                         add(x, mul(mul(h, keep), 1.0 / 0.75))),
+            1e-15);
+  expect_gradcheck([](const std::vector<ag::Variable>& v) {
+    Generator gg(11);  // same mask for every evaluation
+    return ag::residual_dropout(v[0], v[1], 0.4, gg, true);
+  }, {randn({3, 5}, 55), randn({3, 5}, 56)});
+  // Eval mode, p = 0 and a broadcast x: the add of the two ops (generator untouched when not dropping).
+  Generator ge(3);
+  EXPECT_EQ(max_abs_diff(ag::residual_dropout(ag::Variable(x), ag::Variable(h), 0.5, ge, false).data(), add(x, h)),
+            0.0);
+  EXPECT_EQ(ge.offset(), 0u);
+  const Tensor row = randn({1, 40}, 57);
+  Generator gb(4), gb2(4);
+  EXPECT_EQ(max_abs_diff(ag::residual_dropout(ag::Variable(row), ag::Variable(h), 0.2, gb, true).data(),
+                         ag::add(ag::Variable(row), ag::dropout(ag::Variable(h), 0.2, gb2, true)).data()),
+            0.0);
+  expect_error([&] { ag::residual_dropout(ag::Variable(x), ag::Variable(h), 1.5, ge, true); },
+               {"residual_dropout", "1.5", "[6, 40]"});
+  expect_error([&] { ag::residual_dropout(ag::Variable(x), ag::Variable(Tensor::zeros({6, 40}, DType::i64)), 0.1, ge,
+                                          true); },
+               {"residual_dropout", "i64"});
 }
 
 // ---- conv1d and upsampling ---------------------------------------------------------------------------------
