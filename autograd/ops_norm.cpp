@@ -148,14 +148,6 @@ Variable rms_norm(const Variable& x, const Variable& weight, double eps) {
 
 namespace {
 
-// In place y = max(y, 0).
-template <typename T>
-void relu_inplace(T* y, int64_t n) {
-  const int nt = n < kParallelGrain ? 1 : get_num_threads();
-#pragma omp parallel for schedule(static) num_threads(nt)
-  for (int64_t i = 0; i < n; ++i) y[i] = y[i] > (T)0 ? y[i] : (T)0;
-}
-
 // Shared by group_norm and group_norm_relu. x (B, C, T) -> out (B, C, T); mean/rstd (B, G) saved, and with
 // relu the (post-ReLU) output as the gradient mask.
 Variable group_norm_op(const char* op, const Variable& x, int64_t groups, const Variable& weight,
@@ -177,12 +169,11 @@ Variable group_norm_op(const char* op, const Variable& x, int64_t groups, const 
     // zero batch: nothing to normalise
   } else if (dt == DType::f32) {
     fused::group_norm_forward<float>(out.data<float>(), mean.data<float>(), rstd.data<float>(), xc.data<float>(),
-                                     cptr<float>(in.w), cptr<float>(in.b), B, C, Tl, G, (float)eps);
-    if (relu) relu_inplace<float>(out.data<float>(), n);
+                                     cptr<float>(in.w), cptr<float>(in.b), B, C, Tl, G, (float)eps, relu);
   } else {
     fused::group_norm_forward<double>(out.data<double>(), mean.data<double>(), rstd.data<double>(),
-                                      xc.data<double>(), cptr<double>(in.w), cptr<double>(in.b), B, C, Tl, G, eps);
-    if (relu) relu_inplace<double>(out.data<double>(), n);
+                                      xc.data<double>(), cptr<double>(in.w), cptr<double>(in.b), B, C, Tl, G, eps,
+                                      relu);
   }
   const Tensor mask = relu ? out : Tensor();
   return record(op, out, vars,

@@ -28,7 +28,7 @@ void check_groups(const char* op, int64_t B, int64_t C, int64_t Tlen, int64_t G)
 
 template <typename T>
 void group_norm_forward(T* out, T* mean, T* rstd, const T* inp, const T* weight, const T* bias, int64_t B,
-                        int64_t C, int64_t Tlen, int64_t G, T eps) {
+                        int64_t C, int64_t Tlen, int64_t G, T eps, bool relu) {
   const char* op = "group_norm_forward";
   check_groups(op, B, C, Tlen, G);
   if (!(eps >= 0)) throw Error("group_norm_forward: eps must be >= 0");
@@ -63,7 +63,13 @@ void group_norm_forward(T* out, T* mean, T* rstd, const T* inp, const T* weight,
       const T b = (bias ? bias[c] : (T)0) - m * w;  // y = x * w + b with w = weight*rstd, b = bias - mean*w
       const T* xc = x + cc * Tlen;
       T* yc = y + cc * Tlen;
-      for (int64_t t = 0; t < Tlen; ++t) yc[t] = xc[t] * w + b;
+      if (relu)
+        for (int64_t t = 0; t < Tlen; ++t) {
+          const T yt = xc[t] * w + b;
+          yc[t] = yt > (T)0 ? yt : (T)0;
+        }
+      else
+        for (int64_t t = 0; t < Tlen; ++t) yc[t] = xc[t] * w + b;
     }
   }
 }
@@ -164,9 +170,9 @@ void group_norm_backward(T* dinp, T* dweight, T* dbias, const T* dout, const T* 
 }
 
 template void group_norm_forward<float>(float*, float*, float*, const float*, const float*, const float*, int64_t,
-                                        int64_t, int64_t, int64_t, float);
+                                        int64_t, int64_t, int64_t, float, bool);
 template void group_norm_forward<double>(double*, double*, double*, const double*, const double*, const double*,
-                                         int64_t, int64_t, int64_t, int64_t, double);
+                                         int64_t, int64_t, int64_t, int64_t, double, bool);
 template void group_norm_backward<float>(float*, float*, float*, const float*, const float*, const float*,
                                          const float*, const float*, int64_t, int64_t, int64_t, int64_t,
                                          const float*);

@@ -8,10 +8,11 @@
 
 namespace t2m::fused {
 
-// inp (B, C, T), weight/bias (C) or null; out (B, C, T); mean/rstd (B, G) saved for backward.
+// inp (B, C, T), weight/bias (C) or null; out (B, C, T); mean/rstd (B, G) saved for backward. relu: out =
+// max(norm, 0) as each row is written (y > 0 ? y : 0, so NaN and -0 give +0; the same bits as a ReLU pass after).
 template <typename T>
 void group_norm_forward(T* out, T* mean, T* rstd, const T* inp, const T* weight, const T* bias, int64_t B,
-                        int64_t C, int64_t Tlen, int64_t G, T eps);
+                        int64_t C, int64_t Tlen, int64_t G, T eps, bool relu = false);
 
 // dout, inp (B, C, T); weight (C) or null; mean/rstd (B, G). dinp (B, C, T) written; dweight/dbias (C)
 // accumulated, each may be null. relu_out (B, C, T) or null: the output of a ReLU that followed the norm; where it
