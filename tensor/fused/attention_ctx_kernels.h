@@ -58,9 +58,16 @@ void wide_row_sums(T* out, int64_t ldo, const T* w, int64_t wr, int64_t wm, cons
     const T* xc = X + c;
     int64_t ldc = ldx, xgc = xg;
     if (stage) {
+      // Each row's piece of the next chunk is requested while this one is computed: the rows are C floats apart
+      // (a page each at C = 1024), too many streams for the hardware prefetchers, and the copy stalled on every row.
+      const bool ahead = c + 3 * NV * L <= width;
       for (int64_t g = 0; g < ng; ++g)
-        for (int64_t i = 0; i < ni; ++i)
-          std::memcpy(buf + (g * ni + i) * NV * L, X + g * xg + i * ldx + c, sizeof(T) * NV * L);
+        for (int64_t i = 0; i < ni; ++i) {
+          const T* row = X + g * xg + i * ldx + c;
+          std::memcpy(buf + (g * ni + i) * NV * L, row, sizeof(T) * NV * L);
+          if (ahead)
+            for (int v = 0; v < NV; ++v) __builtin_prefetch(row + (2 * NV + v) * L);
+        }
       xc = buf, ldc = NV * L, xgc = ni * NV * L;
     }
     for (int64_t r0 = 0; r0 < n_out; r0 += og.rows) {
