@@ -58,7 +58,7 @@ void wide_row_sums(T* out, int64_t ldo, const T* w, int64_t wr, int64_t wm, cons
     const T* xc = X + c;
     int64_t ldc = ldx, xgc = xg;
     if (stage) {
-      // Each row's piece of the next chunk is requested while this one is computed: the rows are C floats apart
+      // Each row's piece of the chunk after next is requested while this one is computed: the rows are C floats apart
       // (a page each at C = 1024), too many streams for the hardware prefetchers, and the copy stalled on every row.
       const bool ahead = c + 3 * NV * L <= width;
       for (int64_t g = 0; g < ng; ++g)
