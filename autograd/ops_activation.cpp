@@ -72,7 +72,7 @@ void dropout_chunk(T* y, uint8_t* keep, const T* x, int64_t n, uint64_t seed, ui
 }
 
 // The chunks of dropout_chunk over threads. Blocks are independent, so any thread split gives the same mask.
-template <typename T, typename Chunk>
+template <typename Chunk>
 void for_dropout_chunks(int64_t n, Chunk chunk) {
   constexpr int64_t kElems = 4 * kDropChunk;
   const int64_t nch = (n + kElems - 1) / kElems;
@@ -83,7 +83,7 @@ void for_dropout_chunks(int64_t n, Chunk chunk) {
 template <typename T>
 void dropout_forward(T* y, uint8_t* keep, const T* x, int64_t n, uint64_t seed, uint64_t base, double pkeep,
                      T scale) {
-  for_dropout_chunks<T>(n, [&](int64_t j0, int64_t m) {
+  for_dropout_chunks(n, [&](int64_t j0, int64_t m) {
     dropout_chunk(y + j0, keep + j0, x + j0, m, seed, base + (uint64_t)j0 / 4, pkeep, scale);
   });
 }
@@ -93,7 +93,7 @@ void dropout_forward(T* y, uint8_t* keep, const T* x, int64_t n, uint64_t seed, 
 template <typename T>
 void residual_dropout_forward(T* y, uint8_t* keep, const T* x, const T* h, int64_t n, uint64_t seed, uint64_t base,
                               double pkeep, T scale) {
-  for_dropout_chunks<T>(n, [&](int64_t j0, int64_t m) {
+  for_dropout_chunks(n, [&](int64_t j0, int64_t m) {
     T d[4 * kDropChunk];
     dropout_chunk(d, keep + j0, h + j0, m, seed, base + (uint64_t)j0 / 4, pkeep, scale);
     for (int64_t j = 0; j < m; ++j) y[j0 + j] = x[j0 + j] + d[j];
@@ -166,6 +166,19 @@ void check_p(const char* op, double p, const Variable& x) {
                 ")");
 }
 
+// The mask draw of both dropout forms over n elements: the generator advanced as rand_bernoulli would, the scale
+// 1 / (1 - p) and the keep-byte storage for the backward.
+struct DropDraw {
+  uint64_t base;
+  double scale;
+  std::shared_ptr<Storage> keep;
+  uint8_t* mask() const { return static_cast<uint8_t*>(keep->data); }
+};
+DropDraw draw_dropout(Generator& gen, int64_t n, double p) {
+  return {gen.advance((uint64_t)(n + 3) / 4), p < 1.0 ? 1.0 / (1.0 - p) : 0.0,
+          std::make_shared<Storage>((size_t)(n > 0 ? n : 1))};
+}
+
 // The backward of both dropout forms: the gradient through the mask, g * keep / (1 - p).
 Tensor dropout_grad(const Tensor& grad, const std::shared_ptr<Storage>& keep, int64_t n, double scale) {
   const Tensor g = grad.contiguous();
@@ -189,19 +202,18 @@ Variable dropout(const Variable& x, double p, Generator& gen, bool training) {
   if (!training || p == 0.0) return x;
   const Tensor xc = x.data().contiguous();
   const int64_t n = xc.numel();
-  const uint64_t base = gen.advance((uint64_t)(n + 3) / 4);  // as rand_bernoulli draws it
-  const double scale = p < 1.0 ? 1.0 / (1.0 - p) : 0.0;
-  auto keep = std::make_shared<Storage>((size_t)(n > 0 ? n : 1));
-  uint8_t* km = static_cast<uint8_t*>(keep->data);
+  const DropDraw d = draw_dropout(gen, n, p);
   Tensor y = Tensor::empty(xc.shape(), xc.dtype());
   if (n > 0) {
     if (xc.dtype() == DType::f32)
-      dropout_forward<float>(y.data<float>(), km, xc.data<float>(), n, gen.seed(), base, 1.0 - p, (float)scale);
+      dropout_forward<float>(y.data<float>(), d.mask(), xc.data<float>(), n, gen.seed(), d.base, 1.0 - p,
+                             (float)d.scale);
     else
-      dropout_forward<double>(y.data<double>(), km, xc.data<double>(), n, gen.seed(), base, 1.0 - p, scale);
+      dropout_forward<double>(y.data<double>(), d.mask(), xc.data<double>(), n, gen.seed(), d.base, 1.0 - p,
+                              d.scale);
   }
-  return record("dropout", y, {x}, [keep, n, scale](const Tensor& grad, const std::vector<bool>&) {
-    return std::vector<Tensor>{dropout_grad(grad, keep, n, scale)};
+  return record("dropout", y, {x}, [d, n](const Tensor& grad, const std::vector<bool>&) {
+    return std::vector<Tensor>{dropout_grad(grad, d.keep, n, d.scale)};
   });
 }
 
@@ -213,23 +225,20 @@ Variable residual_dropout(const Variable& x, const Variable& h, double p, Genera
     return add(x, dropout(h, p, gen, training));
   const Tensor xc = x.data().contiguous(), hc = h.data().contiguous();
   const int64_t n = hc.numel();
-  const uint64_t base = gen.advance((uint64_t)(n + 3) / 4);  // as dropout(h) draws it
-  const double scale = p < 1.0 ? 1.0 / (1.0 - p) : 0.0;
-  auto keep = std::make_shared<Storage>((size_t)(n > 0 ? n : 1));
-  uint8_t* km = static_cast<uint8_t*>(keep->data);
+  const DropDraw d = draw_dropout(gen, n, p);  // as dropout(h) draws it
   Tensor y = Tensor::empty(hc.shape(), hc.dtype());
   if (n > 0) {
     if (hc.dtype() == DType::f32)
-      residual_dropout_forward<float>(y.data<float>(), km, xc.data<float>(), hc.data<float>(), n, gen.seed(), base,
-                                      1.0 - p, (float)scale);
+      residual_dropout_forward<float>(y.data<float>(), d.mask(), xc.data<float>(), hc.data<float>(), n, gen.seed(),
+                                      d.base, 1.0 - p, (float)d.scale);
     else
-      residual_dropout_forward<double>(y.data<double>(), km, xc.data<double>(), hc.data<double>(), n, gen.seed(),
-                                       base, 1.0 - p, scale);
+      residual_dropout_forward<double>(y.data<double>(), d.mask(), xc.data<double>(), hc.data<double>(), n,
+                                       gen.seed(), d.base, 1.0 - p, d.scale);
   }
   const Shape X = x.shape();
-  return record("residual_dropout", y, {x, h}, [keep, n, scale, X](const Tensor& grad, const std::vector<bool>& need) {
+  return record("residual_dropout", y, {x, h}, [d, n, X](const Tensor& grad, const std::vector<bool>& need) {
     return std::vector<Tensor>{need[0] ? reduce_grad_to(grad, X) : Tensor(),
-                               need[1] ? dropout_grad(grad, keep, n, scale) : Tensor()};
+                               need[1] ? dropout_grad(grad, d.keep, n, d.scale) : Tensor()};
   });
 }
 
