@@ -2,7 +2,6 @@
 // plus the skip connection (each GroupNorm -> ReLU is one fused op, and so are the dropout and the skip's add).
 #include "nn/res_conv_block.h"
 
-
 namespace t2m::nn {
 
 ResConvBlock::ResConvBlock(int64_t channels, int64_t dilation, Generator& gen, int64_t groups, double dropout)

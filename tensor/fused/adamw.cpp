@@ -41,7 +41,7 @@ void adamw_range(float* __restrict p, const float* __restrict g, float* __restri
   auto load = [](const float* x) { return _mm256_loadu_ps(x); };
   auto store = [](float* x, __m256 y) { _mm256_storeu_ps(x, y); };
   // The four streams are prefetched kAdamWPrefetch elements ahead, one line each per 16 elements: the hardware
-  // prefetchers alone left the step ~12 % above its memory floor (66.4M parameters, 2 threads: 39 -> 35.5 ms).
+  // prefetchers alone left the step ~12 % above its memory floor (66.4M parameters, 2 threads: 39-41 -> 34-36.6 ms).
   constexpr int64_t kAdamWPrefetch = 256;
   int64_t i = 0;
   for (; i + 16 <= n; i += 16) {
