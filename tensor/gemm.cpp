@@ -319,9 +319,10 @@ struct alignas(64) StealRange {
 // Threads split C by rows (each packs its own A blocks; the B block is packed once, cooperatively, and shared;
 // once a thread's rows are done it steals B panels of the others' rows, packing their A block itself) or, when M
 // is at most 1024 rows or too short for a row split, by columns (each packs its own B panels and the whole A
-// block; once its columns are done it steals (row block, B panel) items of the others' columns, reading their
-// packed B and packing the A block itself). Every C tile is computed by one kernel call per K block from the same
-// packed data whichever thread takes it, so stealing does not change a bit of the result.
+// block, or from 512 rows its share of a shared A block; once its columns are done it steals (row block, B panel)
+// items of the others' columns, reading their packed B and packing the A block itself unless it is shared).
+// Every C tile is computed by one kernel call per K block from the same packed data whichever thread takes it, so
+// stealing (or sharing) does not change a bit of the result.
 template <typename T>
 void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
   const int64_t mr = uk.mr, nr = uk.nr, MC = uk.mc, KC = uk.kc, NC = uk.nc;
@@ -337,7 +338,12 @@ void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
   const bool split_m = !split_n && (nt == 1 || m_tiles >= 4 * nt || m_tiles >= n_tiles);
   // Stealing between column shares needs the same rounds (K blocks) in every thread: each share in one NC block.
   const bool steal_n = split_n && ceil_div(n_tiles, nt) * nr <= NC;
+  // With stealing and at least 512 rows, the column shares also share packed A: each K block of op(A) (all rows)
+  // is packed once, cooperatively, instead of once per thread, at the cost of a second barrier per K block (which
+  // made 256-row products 2-4 % slower, e.g. 256x256x4096:nt).
+  const bool share_a = steal_n && nt > 1 && g.M >= 512;
   T* shared_bp = split_m ? tls_pack_b.get<T>(KC * round_up(std::min(NC, g.N), nr)) : nullptr;
+  T* shared_ap = share_a ? tls_pack_a.get<T>(round_up(g.M, mr) * KC) : nullptr;
   std::unique_ptr<StealRange[]> ranges((split_m || steal_n) && nt > 1 ? new StealRange[nt] : nullptr);
   std::unique_ptr<T*[]> own_bp(steal_n ? new T*[nt] : nullptr);  // each thread's packed B (split by columns)
   auto cols_of = [&](int u, int team) {  // thread u's share of the columns (split by columns)
@@ -354,7 +360,8 @@ void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
       std::tie(m0, m1) = rows_of(t);
     else
       std::tie(n0, n1) = cols_of(t, team);
-    T* ap = tls_pack_a.get<T>(round_up(std::min(MC, std::max<int64_t>(split_m ? g.M : m1 - m0, 1)), mr) * KC);
+    T* ap = share_a ? shared_ap
+                    : tls_pack_a.get<T>(round_up(std::min(MC, std::max<int64_t>(split_m ? g.M : m1 - m0, 1)), mr) * KC);
     T* bp = split_m ? shared_bp : tls_pack_b.get<T>(KC * round_up(std::min(NC, std::max<int64_t>(n1 - n0, 1)), nr));
     if (own_bp) own_bp[t] = bp;  // published with the first round's items
     int64_t round = 0;
@@ -370,6 +377,15 @@ void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
           if (ranges) ranges[t].reset(ceil_div(m1 - m0, MC) * panels);  // published by the barrier below
           const int64_t p0 = panels * t / team, p1 = panels * (t + 1) / team;  // this thread's B panels
           if (p1 > p0) pack_b_block(uk, g, pc, kc, jc + p0 * nr, std::min(p1 * nr, nc) - p0 * nr, bp + p0 * kc * nr);
+#pragma omp barrier
+        } else if (share_a) {
+          // This thread's micro-panels of the A strip (same layout as packing block by block: every ic is a
+          // multiple of mr), its own B block, then a barrier that publishes both and the work items.
+          const int64_t q0 = m_tiles * t / team * mr, q1 = std::min(g.M, m_tiles * (t + 1) / team * mr);
+          if (q1 > q0) pack_a_block(uk, g, q0, q1 - q0, pc, kc, ap + q0 * kc);
+          pack_b_block(uk, g, pc, kc, jc, nc, bp);
+          ranges[t].reset(ceil_div(m1 - m0, MC) * panels);
+          ranges[t].publish(round);
 #pragma omp barrier
         } else {
           pack_b_block(uk, g, pc, kc, jc, nc, bp);
@@ -407,11 +423,12 @@ void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
             const T* bias_u = pc == 0 && g.bias ? g.bias + sh.c : nullptr;
             for (int64_t item; (item = ranges[u].take(k != 0)) >= 0;) {
               const int64_t ic = sh.r0 + item / pu * MC, mc = std::min(MC, sh.r1 - ic), p = item % pu;
-              if (ic != packed_ic) {
+              if (!share_a && ic != packed_ic) {
                 pack_a_block(uk, g, ic, mc, pc, kc, ap);
                 packed_ic = ic;
               }
-              macro_kernel(uk, mc, std::min(nr, sh.n - p * nr), kc, ap, sh.b + p * kc * nr, g.C + ic * g.ldc, g.ldc,
+              const T* a = share_a ? ap + ic * kc : ap;
+              macro_kernel(uk, mc, std::min(nr, sh.n - p * nr), kc, a, sh.b + p * kc * nr, g.C + ic * g.ldc, g.ldc,
                            g.cc, sh.c + p * nr, g.alpha, beta, bias_u ? bias_u + p * nr : nullptr, relu);
             }
           }

@@ -55,8 +55,9 @@ bool same_bits(float a, float b) { return std::memcmp(&a, &b, sizeof a) == 0; }
 TEST(GemmSegmented, MatchesGemmOnGatheredMatricesBitForBit) {
   const int saved = t2m::get_num_threads();
   struct Shape3 { int64_t M, N, K; };
-  // a panel-sized problem, one that splits by columns, K across two K blocks (512 and 256 deep), a tall one
-  const Shape3 shapes[] = {{40, 96, 70}, {25, 200, 600}, {256, 256, 300}, {300, 40, 1100}};
+  // a panel-sized problem, one that splits by columns, K across two K blocks (512 and 256 deep), a tall one, one
+  // that splits by columns with 512 rows or more (the threads pack A's K blocks together)
+  const Shape3 shapes[] = {{40, 96, 70}, {25, 200, 600}, {256, 256, 300}, {300, 40, 1100}, {520, 300, 600}};
   const int64_t lens[] = {0, 1, 3, 8, 16, 32, 40, 100};
   std::mt19937 pick(5);
   for_each_kernel([&] {
