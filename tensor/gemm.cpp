@@ -14,6 +14,8 @@
 #include <string>
 #include <tuple>
 
+#include <unistd.h>
+
 #include "tensor/allocator.h"
 #include "tensor/cpu_features.h"
 #include "tensor/gemm_args.h"
@@ -81,6 +83,24 @@ const MicroKernel<float>& select_kernel<float>() {
 template <>
 const MicroKernel<double>& select_kernel<double>() {
   return chosen_kernel() == kAvx512 ? gemm_detail::avx512_kernel_f64() : gemm_detail::avx2_kernel_f64();
+}
+
+// ---- packed depth ---------------------------------------------------------------------------------------------
+
+// Float products pack two K blocks at once where L2 holds such an A block next to the B micro-panels (2 MB and
+// more: 192 x 1024 floats = 768 KB): half the packing rounds, and half the barriers of the threaded splits. On the
+// Intel host (2 MB L2) `t2m bench --threads 2` read 1024^3 and the fb shapes 1.5-4 % faster (1024x1024x614:nt 299 ->
+// 310 GFLOP/s) and fm-paper B32 Tm8 612-624 -> 602-605 ms; with 1 MB of L2 (the AMD host) it stays at one block.
+std::atomic<int> g_forced_depth{0};
+int auto_pack_depth() {
+  static const int d = sysconf(_SC_LEVEL2_CACHE_SIZE) >= (2l << 20) ? 2 : 1;
+  return d;
+}
+template <typename T>
+int64_t pack_depth() {
+  if (sizeof(T) != sizeof(float)) return 1;
+  const int f = g_forced_depth.load(std::memory_order_relaxed);
+  return f ? f : auto_pack_depth();
 }
 
 // ---- C = beta C (K == 0 or alpha == 0) -----------------------------------------------------------------------
@@ -208,26 +228,30 @@ void relu_c(const GemmArgs<T>& g) {
 // ---- the packed path ------------------------------------------------------------------------------------------
 
 // The C block at rows from `c` (row stride ldc), columns [j0, j0 + nc) (stored in segments cs), from packed A
-// (mc×kc) and packed B (kc×nc). A short last row panel whose height has a kernel of its own
-// (MicroKernel::short_m) runs it on C directly; other edge tiles, and tiles whose columns straddle a segment
-// boundary, go through a local tile so that the micro-kernel always runs full-size.
+// (mc×kc) and packed B (kc×nc). The packed depth kc may span several arithmetic K blocks of uk.kc: each tile runs
+// one kernel call per K block, back to back (the tile stays in L1 between them), with beta and the bias on the
+// first and the ReLU after the last: every C element gets the same operations, in the same order, as with one
+// packing round per K block. A short last row panel whose height has a kernel of its own (MicroKernel::short_m)
+// runs it on C directly; other edge tiles, and tiles whose columns straddle a segment boundary, go through a local
+// tile so that the micro-kernel always runs full-size.
 template <typename T>
 void macro_kernel(const MicroKernel<T>& uk, int64_t mc, int64_t nc, int64_t kc, const T* ap, const T* bp, T* c,
                   int64_t ldc, const GemmColumns& cs, int64_t j0, T alpha, T beta, const T* bias, bool relu) {
   const int mr = uk.mr, nr = uk.nr;
+  const int64_t ks = uk.kc;  // the arithmetic K block
   alignas(64) T tile[32 * 64];
   auto relu_rows = [&](T* cc, int64_t m) {  // the ReLU epilogue on m rows of a tile stored straight into C
     if (relu)
       for (int64_t i = 0; i < m; ++i) relu_run(cc + i * ldc, nr);
   };
-  // One row of an edge tile from the local tile t: n columns at row.
-  auto store_row = [&](T* row, const T* t, const T* bias_j, int64_t n) {
-    if (beta == T(0) && bias_j) {
+  // One row of an edge tile from the local tile t: n columns at row, with beta b and bias bias_j.
+  auto store_row = [&](T* row, const T* t, T b, const T* bias_j, int64_t n) {
+    if (b == T(0) && bias_j) {
       for (int64_t j = 0; j < n; ++j) row[j] = std::fma(alpha, t[j], bias_j[j]);
-    } else if (beta == T(0)) {
+    } else if (b == T(0)) {
       for (int64_t j = 0; j < n; ++j) row[j] = alpha * t[j];
     } else {
-      for (int64_t j = 0; j < n; ++j) row[j] = std::fma(alpha, t[j], beta * row[j]);
+      for (int64_t j = 0; j < n; ++j) row[j] = std::fma(alpha, t[j], b * row[j]);
     }
   };
   for (int64_t jr = 0; jr < nc; jr += nr) {
@@ -239,31 +263,32 @@ void macro_kernel(const MicroKernel<T>& uk, int64_t mc, int64_t nc, int64_t kc, 
       const int64_t m = std::min<int64_t>(mr, mc - ir);
       const T* a = ap + (ir / mr) * kc * mr;
       T* cc = c + ir * ldc + segment_col(cs, j0 + jr);
-      if (one_run && m == mr && n == nr) {
+      const int s = !one_run || n < nr ? -1 : m == uk.short_m[0] ? 0 : m == uk.short_m[1] ? 1 : -1;
+      if (one_run && n == nr && (m == mr || (s >= 0 && uk.short_kernel[s]))) {  // straight into C
+        const auto kernel = m == mr ? uk.kernel : uk.short_kernel[s];
         if (beta != T(0))  // the kernel reads C only at its end: start pulling the tile in (beta == 0 only writes)
-          for (int i = 0; i < mr; ++i) {
+          for (int64_t i = 0; i < m; ++i) {
             __builtin_prefetch(cc + i * ldc, 1);
             __builtin_prefetch(cc + i * ldc + nr - 1, 1);
           }
-        uk.kernel(kc, a, b, cc, ldc, alpha, beta, bias_j);
-        relu_rows(cc, mr);
-        continue;
-      }
-      const int s = !one_run || n < nr ? -1 : m == uk.short_m[0] ? 0 : m == uk.short_m[1] ? 1 : -1;
-      if (s >= 0 && uk.short_kernel[s]) {  // a short row panel of a size with its own kernel: straight into C
-        uk.short_kernel[s](kc, a, b, cc, ldc, alpha, beta, bias_j);
+        for (int64_t k0 = 0; k0 < kc; k0 += ks)
+          kernel(std::min(ks, kc - k0), a + k0 * mr, b + k0 * nr, cc, ldc, alpha, k0 == 0 ? beta : T(1),
+                 k0 == 0 ? bias_j : nullptr);
         relu_rows(cc, m);
         continue;
       }
-      uk.kernel(kc, a, b, tile, nr, T(1), T(0), nullptr);
-      for (int64_t i = 0; i < m; ++i)
-        for (int64_t j = 0; j < n;) {  // by runs of contiguous columns: one, unless the tile straddles a segment
-          const int64_t run = std::min(n - j, segment_left(cs, j0 + jr + j));
-          T* row = c + (ir + i) * ldc + segment_col(cs, j0 + jr + j);
-          store_row(row, tile + i * nr + j, bias_j ? bias_j + j : nullptr, run);
-          if (relu) relu_run(row, run);
-          j += run;
-        }
+      for (int64_t k0 = 0; k0 < kc; k0 += ks) {
+        uk.kernel(std::min(ks, kc - k0), a + k0 * mr, b + k0 * nr, tile, nr, T(1), T(0), nullptr);
+        const bool last = k0 + ks >= kc;
+        for (int64_t i = 0; i < m; ++i)
+          for (int64_t j = 0; j < n;) {  // by runs of contiguous columns: one, unless the tile straddles a segment
+            const int64_t run = std::min(n - j, segment_left(cs, j0 + jr + j));
+            T* row = c + (ir + i) * ldc + segment_col(cs, j0 + jr + j);
+            store_row(row, tile + i * nr + j, k0 == 0 ? beta : T(1), k0 == 0 && bias_j ? bias_j + j : nullptr, run);
+            if (relu && last) relu_run(row, run);
+            j += run;
+          }
+      }
     }
   }
 }
@@ -325,7 +350,8 @@ struct alignas(64) StealRange {
 // stealing (or sharing) does not change a bit of the result.
 template <typename T>
 void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
-  const int64_t mr = uk.mr, nr = uk.nr, MC = uk.mc, KC = uk.kc, NC = uk.nc;
+  // KC: the packed depth, one or more arithmetic K blocks of uk.kc (macro_kernel runs them one by one).
+  const int64_t mr = uk.mr, nr = uk.nr, MC = uk.mc, KC = uk.kc * pack_depth<T>(), NC = uk.nc;
   const int64_t m_tiles = ceil_div(g.M, mr), n_tiles = ceil_div(g.N, nr);
   nt = int(std::max<int64_t>(1, std::min<int64_t>(nt, std::max(m_tiles, n_tiles))));
   // Up to 1024 rows, with enough B panels for every thread, split by columns: each thread packs its own B panels
@@ -549,6 +575,13 @@ void gemm_segmented(bool ta, bool tb, int64_t M, int64_t N, int64_t K, double al
                     int64_t ldc, GemmColumns cc) {
   gemm_one(ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, C, ldc, static_cast<const double*>(nullptr), ac, bc, cc,
            "gemm_segmented");
+}
+
+int gemm_force_pack_depth(int blocks) {
+  if (blocks < 0 || blocks > 8)
+    throw Error("gemm_force_pack_depth: blocks must be 0 (automatic) to 8, got " + std::to_string(blocks));
+  g_forced_depth.store(blocks);
+  return auto_pack_depth();
 }
 
 const char* gemm_kernel_name() { return chosen_kernel() == kAvx512 ? "avx512" : "avx2"; }
