@@ -21,6 +21,7 @@ struct BenchOptions {
   std::string threads = "1,2";
   std::string shapes = "all";
   std::string kernel = "auto";
+  int pack_depth = 0;
   int reps = 10;
   int warmup = 2;
   bool eigen = false;
@@ -53,6 +54,7 @@ void run_bench(const BenchOptions& o) {
   if (o.reps < 1) throw t2m::Error("bench: --reps must be >= 1, got " + std::to_string(o.reps));
   if (o.warmup < 0) throw t2m::Error("bench: --warmup must be >= 0, got " + std::to_string(o.warmup));
   t2m::gemm_force_kernel(o.kernel.c_str());
+  t2m::gemm_force_pack_depth(o.pack_depth);
   const int saved = t2m::get_num_threads();
   std::printf("# t2m bench: float GEMM, median of %d reps after %d warm-up; peak = %.0f GFLOP/s per thread\n", o.reps,
               o.warmup, kPeakGflopsPerCore);
@@ -79,6 +81,7 @@ void run_bench(const BenchOptions& o) {
   }
   t2m::set_num_threads(saved);
   t2m::gemm_force_kernel("auto");
+  t2m::gemm_force_pack_depth(0);
 }
 
 void add_bench(CLI::App& app) {
@@ -89,6 +92,8 @@ void add_bench(CLI::App& app) {
   c->add_option("--warmup", opts->warmup, "untimed repetitions before timing")->capture_default_str();
   c->add_option("--shapes", opts->shapes, "micro | all | comma list of MxNxK[:nn|tn|nt|tt]")->capture_default_str();
   c->add_option("--kernel", opts->kernel, "auto | avx512 | avx2")->capture_default_str();
+  c->add_option("--pack-depth", opts->pack_depth, "K blocks packed at once (0: by the L2 size; 1-8)")
+      ->capture_default_str();
   c->add_flag("--eigen", opts->eigen, "also time Eigen on the same shapes");
   c->callback([opts] { run_bench(*opts); });
 }
