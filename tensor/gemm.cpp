@@ -87,20 +87,21 @@ const MicroKernel<double>& select_kernel<double>() {
 
 // ---- packed depth ---------------------------------------------------------------------------------------------
 
-// Float products pack two K blocks at once where L2 holds such an A block next to the B micro-panels (2 MB and
-// more: 192 x 1024 floats = 768 KB): half the packing rounds, and half the barriers of the threaded splits. On the
-// Intel host (2 MB L2) `t2m bench --threads 2` read 1024^3 and the fb shapes 1.5-4 % faster (1024x1024x614:nt 299 ->
-// 310 GFLOP/s) and fm-paper B32 Tm8 612-624 -> 602-605 ms; with 1 MB of L2 (the AMD host) it stays at one block.
+// Float products of more than one row block (M > MC) pack two K blocks at once where L2 holds such an A block next
+// to the B micro-panels (2 MB and more: 192 x 1024 floats = 768 KB): half the packing rounds, and half the barriers
+// of the threaded splits. On the Intel host (2 MB L2) `t2m bench --threads 2` read 1024^3 and the fb shapes
+// 1.5-4 % faster (1024x1024x614:nt 299 -> 310 GFLOP/s) and fm-paper B32 Tm8 612-624 -> 602-605 ms, but 32-row
+// products 5-15 % slower (32x256x1536 199-209 -> 172-174); with 1 MB of L2 (the AMD host) it stays at one block.
 std::atomic<int> g_forced_depth{0};
 int auto_pack_depth() {
   static const int d = sysconf(_SC_LEVEL2_CACHE_SIZE) >= (2l << 20) ? 2 : 1;
   return d;
 }
 template <typename T>
-int64_t pack_depth() {
+int64_t pack_depth(int64_t M, int64_t MC) {
   if (sizeof(T) != sizeof(float)) return 1;
   const int f = g_forced_depth.load(std::memory_order_relaxed);
-  return f ? f : auto_pack_depth();
+  return f ? f : M > MC ? auto_pack_depth() : 1;
 }
 
 // ---- C = beta C (K == 0 or alpha == 0) -----------------------------------------------------------------------
@@ -351,7 +352,7 @@ struct alignas(64) StealRange {
 template <typename T>
 void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
   // KC: the packed depth, one or more arithmetic K blocks of uk.kc (macro_kernel runs them one by one).
-  const int64_t mr = uk.mr, nr = uk.nr, MC = uk.mc, KC = uk.kc * pack_depth<T>(), NC = uk.nc;
+  const int64_t mr = uk.mr, nr = uk.nr, MC = uk.mc, KC = uk.kc * pack_depth<T>(g.M, uk.mc), NC = uk.nc;
   const int64_t m_tiles = ceil_div(g.M, mr), n_tiles = ceil_div(g.N, nr);
   nt = int(std::max<int64_t>(1, std::min<int64_t>(nt, std::max(m_tiles, n_tiles))));
   // Up to 1024 rows, with enough B panels for every thread, split by columns: each thread packs its own B panels
@@ -368,6 +369,10 @@ void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
   // is packed once, cooperatively, instead of once per thread, at the cost of a second barrier per K block (which
   // made 256-row products 2-4 % slower, e.g. 256x256x4096:nt).
   const bool share_a = steal_n && nt > 1 && g.M >= 512;
+  // With one row block (M <= MC: the adaLN products, M = 32) every B panel is used once: when op(B) = B^T (its
+  // panels are runs of whole source rows), each is packed right before its use into an L2-resident buffer, instead
+  // of a whole B block (1.5-3 MB per thread) written out to L3 and read back.
+  const bool lazy_b = steal_n && nt > 1 && g.M <= MC && g.tb;
   T* shared_bp = split_m ? tls_pack_b.get<T>(KC * round_up(std::min(NC, g.N), nr)) : nullptr;
   T* shared_ap = share_a ? tls_pack_a.get<T>(round_up(g.M, mr) * KC) : nullptr;
   std::unique_ptr<StealRange[]> ranges((split_m || steal_n) && nt > 1 ? new StealRange[nt] : nullptr);
@@ -388,7 +393,9 @@ void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
       std::tie(n0, n1) = cols_of(t, team);
     T* ap = share_a ? shared_ap
                     : tls_pack_a.get<T>(round_up(std::min(MC, std::max<int64_t>(split_m ? g.M : m1 - m0, 1)), mr) * KC);
-    T* bp = split_m ? shared_bp : tls_pack_b.get<T>(KC * round_up(std::min(NC, std::max<int64_t>(n1 - n0, 1)), nr));
+    T* bp = split_m  ? shared_bp
+            : lazy_b ? tls_pack_b.get<T>(KC * nr)
+                     : tls_pack_b.get<T>(KC * round_up(std::min(NC, std::max<int64_t>(n1 - n0, 1)), nr));
     if (own_bp) own_bp[t] = bp;  // published with the first round's items
     int64_t round = 0;
     for (int64_t jc = n0; jc < n1; jc += NC) {
@@ -414,7 +421,7 @@ void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
           ranges[t].publish(round);
 #pragma omp barrier
         } else {
-          pack_b_block(uk, g, pc, kc, jc, nc, bp);
+          if (!lazy_b) pack_b_block(uk, g, pc, kc, jc, nc, bp);
           if (ranges) {
             ranges[t].reset(ceil_div(m1 - m0, MC) * panels);
             ranges[t].publish(round);
@@ -454,7 +461,9 @@ void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
                 packed_ic = ic;
               }
               const T* a = share_a ? ap + ic * kc : ap;
-              macro_kernel(uk, mc, std::min(nr, sh.n - p * nr), kc, a, sh.b + p * kc * nr, g.C + ic * g.ldc, g.ldc,
+              const int64_t n = std::min(nr, sh.n - p * nr);
+              if (lazy_b) pack_b_block(uk, g, pc, kc, sh.c + p * nr, n, bp);
+              macro_kernel(uk, mc, n, kc, a, lazy_b ? bp : sh.b + p * kc * nr, g.C + ic * g.ldc, g.ldc,
                            g.cc, sh.c + p * nr, g.alpha, beta, bias_u ? bias_u + p * nr : nullptr, relu);
             }
           }

@@ -67,9 +67,10 @@ void gemm_segmented(bool trans_a, bool trans_b, int64_t M, int64_t N, int64_t K,
 const char* gemm_kernel_name();
 // Force a kernel (for tests/benchmarks): "avx512", "avx2" or "auto". Throws Error if the CPU lacks it.
 void gemm_force_kernel(const char* name);
-// How many of the kernel's K blocks are packed at once (float): 1 or 2 by the L2 size when 0 (the default), else
-// blocks (1-8; Error otherwise). It does not change a bit of any result (each K block is still one kernel call with
-// the same C update); tests and benchmarks compare depths. Returns the automatic choice for this CPU.
+// How many of the kernel's K blocks are packed at once (float): when 0 (the default) 1, or 2 for products of more
+// than one row block on a CPU with 2 MB of L2 or more; else `blocks` (1-8; Error otherwise). It changes no bit of
+// any result (each K block is still one kernel call with the same C update); tests and benchmarks compare depths.
+// Returns the automatic depth of products of more than one row block on this CPU.
 int gemm_force_pack_depth(int blocks);
 
 }  // namespace t2m
