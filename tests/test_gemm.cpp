@@ -342,10 +342,11 @@ TEST(Gemm, ThreadCountsGiveIdenticalResults) {
   for_each_kernel([] {
     // split by rows (300x200; 600x256, which has B panels enough for a column split but N <= M/2), by columns
     // with one K block (40x900, 256x1024) and three (200x700x1300: the stealing threads meet after each block; 530x800:
-    // 512 rows or more, so the threads pack A's K blocks together, a short last row panel included), one thread's
-    // share (513x33)
+    // 512 rows or more, so the threads pack A's K blocks together, a short last row panel included; 40x900x1100:
+    // one row block, so with op(B) = B^T each B panel is packed just before its use), one thread's share (513x33)
     for (const Shape3 s : {Shape3{300, 200, 600}, Shape3{600, 256, 700}, Shape3{40, 900, 70}, Shape3{513, 33, 64},
-                           Shape3{256, 1024, 256}, Shape3{200, 700, 1300}, Shape3{530, 800, 1100}}) {
+                           Shape3{256, 1024, 256}, Shape3{200, 700, 1300}, Shape3{530, 800, 1100},
+                           Shape3{40, 900, 1100}}) {
       for (int t = 0; t < 4; ++t) {
         const bool ta = t & 1, tb = t & 2;
         std::mt19937 rng(11);
