@@ -237,6 +237,34 @@ TEST(FusedNormDeterminism, RepeatedRunsAtTwoThreadsAreBitwiseEqual) {
   expect_float_matches(a, to_double(one), 1e-5, "1 vs 2 threads");
 }
 
+// The forward takes its rows' statistics four at a time (the last row repeated when fewer are left): a row's mean,
+// rstd and output bits do not depend on which rows it is grouped with, i.e. on N, its position or the threads.
+TEST(LayerNorm, ForwardRowBitsDoNotDependOnGrouping) {
+  const int saved = t2m::get_num_threads();
+  for (int64_t C : {int64_t(1024), int64_t(37), int64_t(9)}) {
+    const int64_t N = std::max<int64_t>(7, 40000 / C + 3);  // past kParallelGrain: both threads get rows
+    const auto x = to_float(randn(N * C, 51)), w = to_float(randn(C, 52)), b = to_float(randn(C, 53));
+    for (int threads : {1, 2}) {
+      t2m::set_num_threads(threads);
+      std::vector<float> y(N * C), mean(N), rstd(N);
+      layer_norm_forward<float>(y.data(), mean.data(), rstd.data(), x.data(), w.data(), b.data(), N, C, 1e-5f);
+      for (int64_t i = 0; i < N; i += 1 + i / 3) {  // row i alone, and as the second of a pair
+        for (int64_t first : {i, std::max<int64_t>(i - 1, 0)}) {
+          const int64_t n = i - first + 1;
+          std::vector<float> y1(n * C), m1(n), r1(n);
+          layer_norm_forward<float>(y1.data(), m1.data(), r1.data(), x.data() + first * C, w.data(), b.data(), n, C,
+                                    1e-5f);
+          const std::vector<float> row(y.begin() + i * C, y.begin() + (i + 1) * C),
+              row1(y1.end() - C, y1.end());
+          EXPECT_TRUE(bitwise_equal(row, row1)) << "C " << C << " row " << i << " threads " << threads;
+          EXPECT_TRUE(bitwise_equal({mean[i], rstd[i]}, {m1[n - 1], r1[n - 1]})) << "C " << C << " row " << i;
+        }
+      }
+    }
+  }
+  t2m::set_num_threads(saved);
+}
+
 // layer_norm_backward with tanh_out (the backward of tanh(LayerNorm(x))) gives the bits of forming
 // g (1 - y^2) in a pass of its own and running the plain backward on it, with and without affine, 1 and 2 threads.
 TEST(LayerNorm, BackwardThroughTanhMatchesTwoPasses) {
