@@ -265,6 +265,30 @@ TEST(LayerNorm, ForwardRowBitsDoNotDependOnGrouping) {
   t2m::set_num_threads(saved);
 }
 
+// GroupNorm's (sample, group) blocks go through the same four-at-a-time statistics: a sample's bits do not depend
+// on the batch around it (blocks of 4 straddle samples when G = 3) or on the threads.
+TEST(GroupNorm, ForwardSampleBitsDoNotDependOnGrouping) {
+  const int saved = t2m::get_num_threads();
+  const int64_t B = 11, C = 12, T = 300, G = 3, n = C * T;  // past kParallelGrain
+  const auto x = to_float(randn(B * n, 61)), w = to_float(randn(C, 62)), b = to_float(randn(C, 63));
+  for (int threads : {1, 2}) {
+    t2m::set_num_threads(threads);
+    std::vector<float> y(B * n), mean(B * G), rstd(B * G);
+    group_norm_forward<float>(y.data(), mean.data(), rstd.data(), x.data(), w.data(), b.data(), B, C, T, G, 1e-5f,
+                              true);
+    for (int64_t i = 0; i < B; ++i) {
+      std::vector<float> y1(n), m1(G), r1(G);
+      group_norm_forward<float>(y1.data(), m1.data(), r1.data(), x.data() + i * n, w.data(), b.data(), 1, C, T, G,
+                                1e-5f, true);
+      EXPECT_TRUE(bitwise_equal(std::vector<float>(y.begin() + i * n, y.begin() + (i + 1) * n), y1))
+          << "sample " << i << " threads " << threads;
+      EXPECT_TRUE(bitwise_equal(std::vector<float>(mean.begin() + i * G, mean.begin() + (i + 1) * G), m1));
+      EXPECT_TRUE(bitwise_equal(std::vector<float>(rstd.begin() + i * G, rstd.begin() + (i + 1) * G), r1));
+    }
+  }
+  t2m::set_num_threads(saved);
+}
+
 // layer_norm_backward with tanh_out (the backward of tanh(LayerNorm(x))) gives the bits of forming
 // g (1 - y^2) in a pass of its own and running the plain backward on it, with and without affine, 1 and 2 threads.
 TEST(LayerNorm, BackwardThroughTanhMatchesTwoPasses) {

@@ -4,11 +4,13 @@
 
 #include <omp.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <string>
 
 #include "tensor/fused/kernel_util.h"
+#include "tensor/fused/row_stats.h"
 #include "tensor/fused/scratch.h"
 
 namespace t2m::fused {
@@ -39,37 +41,38 @@ void group_norm_forward(T* out, T* mean, T* rstd, const T* inp, const T* weight,
   check_ptr(op, "inp", inp);
   const int64_t Cg = C / G, n = Cg * Tlen;
   const int nt = fused_threads(B * C * Tlen);
-#pragma omp parallel for num_threads(nt) schedule(static) if (nt > 1)
-  for (int64_t bg = 0; bg < B * G; ++bg) {
-    const int64_t g = bg % G;
-    const T* x = inp + bg * n;
-    T* y = out + bg * n;
-    T s = 0;
-#pragma omp simd reduction(+ : s)
-    for (int64_t i = 0; i < n; ++i) s += x[i];
-    const T m = s / (T)n;
-    T v = 0;
-#pragma omp simd reduction(+ : v)
-    for (int64_t i = 0; i < n; ++i) {
-      const T d = x[i] - m;
-      v += d * d;
-    }
-    const T r = (T)1 / std::sqrt(v / (T)n + eps);
-    mean[bg] = m;
-    rstd[bg] = r;
-    for (int64_t cc = 0; cc < Cg; ++cc) {
-      const int64_t c = g * Cg + cc;
-      const T w = weight ? weight[c] * r : r;
-      const T b = (bias ? bias[c] : (T)0) - m * w;  // y = x * w + b with w = weight*rstd, b = bias - mean*w
-      const T* xc = x + cc * Tlen;
-      T* yc = y + cc * Tlen;
-      if (relu)
-        for (int64_t t = 0; t < Tlen; ++t) {
-          const T yt = xc[t] * w + b;
-          yc[t] = yt > (T)0 ? yt : (T)0;
+#pragma omp parallel num_threads(nt) if (nt > 1)
+  {
+    const auto [j0, j1] = row_range(B * G, omp_get_thread_num(), omp_get_num_threads());
+    for (int64_t bg = j0; bg < j1;) {
+      // Four (sample, group) blocks' statistics side by side (row_stats.h; the last again when fewer are left).
+      const int blocks = int(std::min<int64_t>(4, j1 - bg));
+      const T* xs[4];
+      for (int j = 0; j < 4; ++j) xs[j] = inp + (bg + std::min(j, blocks - 1)) * n;
+      T m4[4], r4[4];
+      row_stats4(xs[0], xs[1], xs[2], xs[3], n, eps, m4, r4);
+      for (int j = 0; j < blocks; ++j, ++bg) {
+        const int64_t g = bg % G;
+        const T* x = xs[j];
+        T* y = out + bg * n;
+        const T m = m4[j], r = r4[j];
+        mean[bg] = m;
+        rstd[bg] = r;
+        for (int64_t cc = 0; cc < Cg; ++cc) {
+          const int64_t c = g * Cg + cc;
+          const T w = weight ? weight[c] * r : r;
+          const T b = (bias ? bias[c] : (T)0) - m * w;  // y = x * w + b with w = weight*rstd, b = bias - mean*w
+          const T* xc = x + cc * Tlen;
+          T* yc = y + cc * Tlen;
+          if (relu)
+            for (int64_t t = 0; t < Tlen; ++t) {
+              const T yt = xc[t] * w + b;
+              yc[t] = yt > (T)0 ? yt : (T)0;
+            }
+          else
+            for (int64_t t = 0; t < Tlen; ++t) yc[t] = xc[t] * w + b;
         }
-      else
-        for (int64_t t = 0; t < Tlen; ++t) yc[t] = xc[t] * w + b;
+      }
     }
   }
 }
