@@ -4,6 +4,7 @@
 //   jc over N step nc: pc over K step kc: pack op(B)[pc:+kc, jc:+nc] into nr-wide panels (kc×nr each)
 //     ic over M step mc: pack op(A)[ic:+mc, pc:+kc] into mr-tall panels (kc×mr each)
 //       jr over the B panels: ir over the A panels: micro-kernel updates the mr×nr tile of C.
+// (gemm.cpp may pack several K blocks at once, `pack depth`; each K block of kc is still one kernel call.)
 // Packed layouts (both k-major, zero padded to a full panel):
 //   A panel p: ap[p*kc*mr + k*mr + i] = op(A)[p*mr + i, k]      (i < mr)
 //   B panel q: bp[q*kc*nr + k*nr + j] = op(B)[k, q*nr + j]      (j < nr)
