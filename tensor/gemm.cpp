@@ -21,6 +21,7 @@
 #include "tensor/gemm_args.h"
 #include "tensor/gemm_columns.h"
 #include "tensor/gemm_kernel.h"
+#include "tensor/gemm_steal.h"
 #include "tensor/parallel.h"
 #include "tensor/tensor.h"
 
@@ -32,6 +33,7 @@ using gemm_detail::GemmArgs;
 using gemm_detail::MicroKernel;
 using gemm_detail::segment_col;
 using gemm_detail::segment_left;
+using gemm_detail::StealRange;
 
 int64_t ceil_div(int64_t a, int64_t b) { return (a + b - 1) / b; }
 int64_t round_up(int64_t a, int64_t b) { return ceil_div(a, b) * b; }
@@ -314,33 +316,6 @@ void pack_b_block(const MicroKernel<T>& uk, const GemmArgs<T>& g, int64_t pc, in
                                 uk.pack_b(g.tb, nd, np, src, g.ldb, out);
                               });
 }
-
-// The (row block, B panel) work items of one thread's share of C in one (jc, pc) round: front and back indices in
-// one atomic word (front in the low 32 bits). The owner takes items from the front; a thread that has finished its
-// own share takes them from the back (work stealing: on these VMs one vCPU is often 20% slower than the other for
-// seconds at a time, and a static split makes the faster one wait at every barrier).
-struct alignas(64) StealRange {
-  std::atomic<uint64_t> fb{0};
-  std::atomic<int64_t> round{-1};  // the round whose items fb holds (split by columns: published without a barrier)
-  void reset(int64_t n) { fb.store(uint64_t(n) << 32, std::memory_order_relaxed); }
-  // After reset and after packing what the items read: a thief that sees `r` also sees both.
-  void publish(int64_t r) { round.store(r, std::memory_order_release); }
-  void wait_for(int64_t r) const {
-    while (round.load(std::memory_order_acquire) != r) {
-    }
-  }
-  // Front item (owner) or back item (thief), -1 when none is left.
-  int64_t take(bool back) {
-    uint64_t cur = fb.load(std::memory_order_relaxed);
-    for (;;) {
-      const uint64_t f = cur & 0xffffffffu, b = cur >> 32;
-      if (f >= b) return -1;
-      const uint64_t next = back ? (f | ((b - 1) << 32)) : ((f + 1) | (b << 32));
-      if (fb.compare_exchange_weak(cur, next, std::memory_order_acq_rel, std::memory_order_relaxed))
-        return int64_t(back ? b - 1 : f);
-    }
-  }
-};
 
 // Threads split C by rows (each packs its own A blocks; the B block is packed once, cooperatively, and shared;
 // once a thread's rows are done it steals B panels of the others' rows, packing their A block itself) or, when M
