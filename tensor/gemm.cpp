@@ -386,20 +386,20 @@ void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
           const int64_t p0 = panels * t / team, p1 = panels * (t + 1) / team;  // this thread's B panels
           if (p1 > p0) pack_b_block(uk, g, pc, kc, jc + p0 * nr, std::min(p1 * nr, nc) - p0 * nr, bp + p0 * kc * nr);
 #pragma omp barrier
-        } else if (share_a) {
-          // This thread's micro-panels of the A strip (same layout as packing block by block: every ic is a
-          // multiple of mr), its own B block, then a barrier that publishes both and the work items.
-          const int64_t q0 = m_tiles * t / team * mr, q1 = std::min(g.M, m_tiles * (t + 1) / team * mr);
-          if (q1 > q0) pack_a_block(uk, g, q0, q1 - q0, pc, kc, ap + q0 * kc);
-          pack_b_block(uk, g, pc, kc, jc, nc, bp);
-          ranges[t].reset(ceil_div(m1 - m0, MC) * panels);
-          ranges[t].publish(round);
-#pragma omp barrier
         } else {
+          // Shared A: this thread's micro-panels of the strip (every ic is a multiple of mr: the layout of packing
+          // block by block), published with the rest by the barrier below.
+          if (share_a) {
+            const int64_t q0 = m_tiles * t / team * mr, q1 = std::min(g.M, m_tiles * (t + 1) / team * mr);
+            if (q1 > q0) pack_a_block(uk, g, q0, q1 - q0, pc, kc, ap + q0 * kc);
+          }
           if (!lazy_b) pack_b_block(uk, g, pc, kc, jc, nc, bp);
           if (ranges) {
             ranges[t].reset(ceil_div(m1 - m0, MC) * panels);
             ranges[t].publish(round);
+          }
+          if (share_a) {
+#pragma omp barrier
           }
         }
         if (!ranges) {  // one thread, or split by columns without stealing: this thread's rows in order
