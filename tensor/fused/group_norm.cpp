@@ -4,7 +4,6 @@
 
 #include <omp.h>
 
-#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <string>
@@ -45,12 +44,10 @@ void group_norm_forward(T* out, T* mean, T* rstd, const T* inp, const T* weight,
   {
     const auto [j0, j1] = row_range(B * G, omp_get_thread_num(), omp_get_num_threads());
     for (int64_t bg = j0; bg < j1;) {
-      // Four (sample, group) blocks' statistics side by side (row_stats.h; the last again when fewer are left).
-      const int blocks = int(std::min<int64_t>(4, j1 - bg));
+      // Up to four (sample, group) blocks' statistics side by side (row_stats.h).
       const T* xs[4];
-      for (int j = 0; j < 4; ++j) xs[j] = inp + (bg + std::min(j, blocks - 1)) * n;
       T m4[4], r4[4];
-      row_stats4(xs[0], xs[1], xs[2], xs[3], n, eps, m4, r4);
+      const int blocks = row_group_stats(inp, n, bg, j1, n, eps, xs, m4, r4);
       for (int j = 0; j < blocks; ++j, ++bg) {
         const int64_t g = bg % G;
         const T* x = xs[j];

@@ -4,7 +4,6 @@
 
 #include <omp.h>
 
-#include <algorithm>
 #include <cmath>
 #include <cstring>
 
@@ -31,11 +30,9 @@ void layer_norm_forward(T* out, T* mean, T* rstd, const T* inp, const T* weight,
   {
     const auto [i0, i1] = row_range(N, omp_get_thread_num(), omp_get_num_threads());
     for (int64_t i = i0; i < i1;) {
-      const int rows = int(std::min<int64_t>(4, i1 - i));
       const T* x[4];
-      for (int j = 0; j < 4; ++j) x[j] = inp + (i + std::min(j, rows - 1)) * C;  // the last row again if short
       T m4[4], r4[4];
-      row_stats4(x[0], x[1], x[2], x[3], C, eps, m4, r4);
+      const int rows = row_group_stats(inp, C, i, i1, C, eps, x, m4, r4);
       for (int j = 0; j < rows; ++j, ++i) {
         const T* xr = x[j];
         T* y = out + i * C;

@@ -38,4 +38,15 @@ inline void row_stats4(const T* x0, const T* x1, const T* x2, const T* x3, int64
   }
 }
 
+// The next group of rows [i, i + rows) of the rows [i, end) of a matrix (row stride ld), rows = min(4, end - i):
+// their pointers in x (the last repeated when fewer than four) and their statistics in m and r. Returns rows.
+template <typename T>
+inline int row_group_stats(const T* first, int64_t ld, int64_t i, int64_t end, int64_t C, T eps, const T* x[4],
+                           T m[4], T r[4]) {
+  const int rows = int(end - i < 4 ? end - i : 4);
+  for (int j = 0; j < 4; ++j) x[j] = first + (i + (j < rows ? j : rows - 1)) * ld;
+  row_stats4(x[0], x[1], x[2], x[3], C, eps, m, r);
+  return rows;
+}
+
 }  // namespace t2m::fused
