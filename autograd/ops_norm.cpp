@@ -148,8 +148,8 @@ Variable rms_norm(const Variable& x, const Variable& weight, double eps) {
 
 namespace {
 
-// Shared by group_norm and group_norm_relu. x (B, C, T) -> out (B, C, T); mean/rstd (B, G) saved, and with
-// relu the (post-ReLU) output as the gradient mask.
+// Shared by group_norm and group_norm_relu. x (B, C, T) -> out (B, C, T); mean/rstd (B, G) saved (with relu the
+// backward recomputes the output's sign from them, x, weight and bias).
 Variable group_norm_op(const char* op, const Variable& x, int64_t groups, const Variable& weight,
                        const Variable& bias, double eps, bool relu) {
   if ((x.dim() != 3 && x.dim() != 2) || x.size(1) < 1 || (x.dim() == 3 && x.size(2) < 1))
@@ -175,9 +175,8 @@ Variable group_norm_op(const char* op, const Variable& x, int64_t groups, const 
                                       xc.data<double>(), cptr<double>(in.w), cptr<double>(in.b), B, C, Tl, G, eps,
                                       relu);
   }
-  const Tensor mask = relu ? out : Tensor();
   return record(op, out, vars,
-                [in, xc, mean, rstd, mask, B, C, Tl, G, n](const Tensor& grad, const std::vector<bool>& need) {
+                [in, xc, mean, rstd, relu, B, C, Tl, G, n](const Tensor& grad, const std::vector<bool>& need) {
                   const Tensor g = grad.contiguous();
                   Tensor dw, db;
                   param_grads(in, need, dw, db);
@@ -186,13 +185,13 @@ Variable group_norm_op(const char* op, const Variable& x, int64_t groups, const 
                   if (g.dtype() == DType::f32) {
                     fused::group_norm_backward<float>(mptr<float>(dx), mptr<float>(dw), mptr<float>(db),
                                                       g.data<float>(), xc.data<float>(), cptr<float>(in.w),
-                                                      mean.data<float>(), rstd.data<float>(), B, C, Tl, G,
-                                                      cptr<float>(mask));
+                                                      mean.data<float>(), rstd.data<float>(), B, C, Tl, G, relu,
+                                                      cptr<float>(in.b));
                   } else {
                     fused::group_norm_backward<double>(mptr<double>(dx), mptr<double>(dw), mptr<double>(db),
                                                        g.data<double>(), xc.data<double>(), cptr<double>(in.w),
                                                        mean.data<double>(), rstd.data<double>(), B, C, Tl, G,
-                                                       cptr<double>(mask));
+                                                       relu, cptr<double>(in.b));
                   }
                   return pack_grads(in, dx, dw, db);
                 });

@@ -200,6 +200,19 @@ TEST(AgNorm, GroupNormReluMatchesComposedAndGradcheck) {
   EXPECT_EQ(max_abs_diff(x1.grad(), x2.grad()), 0.0);
   EXPECT_EQ(max_abs_diff(w1.grad(), w2.grad()), 0.0);
   EXPECT_EQ(max_abs_diff(b1.grad(), b2.grad()), 0.0);
+  {  // without weight and bias (the backward recomputes the output's sign from x and the statistics alone); one
+     // constant group normalises to exactly 0, where the ReLU passes no gradient
+    Tensor xz = xl.clone();
+    for (int64_t i = 0; i < 8 * 200; ++i) xz.data<float>()[i] = 0.5f;
+    ag::Variable x3(xz, true), x4(xz, true);
+    ag::Variable y3 = ag::group_norm_relu(x3, 8, ag::Variable(), ag::Variable());
+    ag::Variable y4 = ag::relu(ag::group_norm(x4, 8, ag::Variable(), ag::Variable()));
+    EXPECT_EQ(std::memcmp(y3.data().data<float>(), y4.data().data<float>(), sizeof(float) * xl.numel()), 0);
+    EXPECT_EQ(y3.data().data<float>()[0], 0.0f);
+    y3.backward(seed);
+    y4.backward(seed);
+    EXPECT_EQ(max_abs_diff(x3.grad(), x4.grad()), 0.0);
+  }
   expect_gradcheck([](const std::vector<ag::Variable>& v) { return ag::group_norm_relu(v[0], 2, v[1], v[2], 1e-5); },
                    {randn({2, 4, 3}, 97), randn({4}, 98), randn({4}, 99)});
   expect_error([] { ag::group_norm_relu(ag::Variable(randn({2, 6, 3}, 1)), 4, ag::Variable(), ag::Variable()); },

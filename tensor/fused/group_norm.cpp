@@ -16,6 +16,19 @@ namespace t2m::fused {
 
 namespace {
 
+// Channel c's affine output y = x w + b, w = weight[c] rstd, b = bias[c] - mean w (one FMA each): how the forward
+// writes it, and how the ReLU backward recomputes its sign (the same operations, so the same bits).
+template <typename T>
+struct ChannelAffine {
+  T w, b;
+  T operator()(T x) const { return std::fma(x, w, b); }
+};
+template <typename T>
+ChannelAffine<T> channel_affine(const T* weight, const T* bias, int64_t c, T m, T r) {
+  const T w = weight ? weight[c] * r : r;
+  return {w, std::fma(-m, w, bias ? bias[c] : (T)0)};
+}
+
 void check_groups(const char* op, int64_t B, int64_t C, int64_t Tlen, int64_t G) {
   check_dim(op, "B", B, 0);
   check_dim(op, "C", C, 1);
@@ -56,18 +69,16 @@ void group_norm_forward(T* out, T* mean, T* rstd, const T* inp, const T* weight,
         mean[bg] = m;
         rstd[bg] = r;
         for (int64_t cc = 0; cc < Cg; ++cc) {
-          const int64_t c = g * Cg + cc;
-          const T w = weight ? weight[c] * r : r;
-          const T b = (bias ? bias[c] : (T)0) - m * w;  // y = x * w + b with w = weight*rstd, b = bias - mean*w
+          const ChannelAffine<T> a = channel_affine(weight, bias, g * Cg + cc, m, r);
           const T* xc = x + cc * Tlen;
           T* yc = y + cc * Tlen;
           if (relu)
             for (int64_t t = 0; t < Tlen; ++t) {
-              const T yt = xc[t] * w + b;
+              const T yt = a(xc[t]);
               yc[t] = yt > (T)0 ? yt : (T)0;
             }
           else
-            for (int64_t t = 0; t < Tlen; ++t) yc[t] = xc[t] * w + b;
+            for (int64_t t = 0; t < Tlen; ++t) yc[t] = a(xc[t]);
         }
       }
     }
@@ -77,7 +88,7 @@ void group_norm_forward(T* out, T* mean, T* rstd, const T* inp, const T* weight,
 template <typename T>
 void group_norm_backward(T* dinp, T* dweight, T* dbias, const T* dout, const T* inp, const T* weight,
                          const T* mean, const T* rstd, int64_t B, int64_t C, int64_t Tlen, int64_t G,
-                         const T* relu_out) {
+                         bool relu, const T* bias) {
   const char* op = "group_norm_backward";
   check_groups(op, B, C, Tlen, G);
   if (B == 0) return;
@@ -101,7 +112,6 @@ void group_norm_backward(T* dinp, T* dweight, T* dbias, const T* dout, const T* 
       const int64_t g = bg % G;
       const T* x = inp + bg * n;
       const T* dy = dout + bg * n;
-      const T* ry = relu_out ? relu_out + bg * n : nullptr;
       T* dx = dinp + bg * n;
       const T m = mean[bg], r = rstd[bg];
       T sum_dn = 0, sum_dn_n = 0;
@@ -111,12 +121,12 @@ void group_norm_backward(T* dinp, T* dweight, T* dbias, const T* dout, const T* 
         const T* xc = x + cc * Tlen;
         const T* dyc = dy + cc * Tlen;
         T s_dy = 0, s_dy_n = 0;
-        if (ry) {
-          const T* rc = ry + cc * Tlen;
+        if (relu) {
+          const ChannelAffine<T> a = channel_affine(weight, bias, c, m, r);
 #pragma omp simd reduction(+ : s_dy, s_dy_n)
           for (int64_t t = 0; t < Tlen; ++t) {
             const T g = dyc[t];  // read unconditionally: a blend, not a masked load (slow on AMD)
-            const T nn = (xc[t] - m) * r, d = rc[t] > (T)0 ? g : (T)0;
+            const T nn = (xc[t] - m) * r, d = a(xc[t]) > (T)0 ? g : (T)0;
             s_dy += d;
             s_dy_n += d * nn;
           }
@@ -142,11 +152,11 @@ void group_norm_backward(T* dinp, T* dweight, T* dbias, const T* dout, const T* 
         const T* xc = x + cc * Tlen;
         const T* dyc = dy + cc * Tlen;
         T* dxc = dx + cc * Tlen;
-        if (ry) {
-          const T* rc = ry + cc * Tlen;
+        if (relu) {
+          const ChannelAffine<T> a = channel_affine(weight, bias, c, m, r);
           for (int64_t t = 0; t < Tlen; ++t) {
             const T g = dyc[t];
-            const T nn = (xc[t] - m) * r, d = rc[t] > (T)0 ? g : (T)0;
+            const T nn = (xc[t] - m) * r, d = a(xc[t]) > (T)0 ? g : (T)0;
             dxc[t] = r * (w * d - mdn - nn * mdnn);
           }
         } else {
@@ -174,10 +184,10 @@ template void group_norm_forward<float>(float*, float*, float*, const float*, co
 template void group_norm_forward<double>(double*, double*, double*, const double*, const double*, const double*,
                                          int64_t, int64_t, int64_t, int64_t, double, bool);
 template void group_norm_backward<float>(float*, float*, float*, const float*, const float*, const float*,
-                                         const float*, const float*, int64_t, int64_t, int64_t, int64_t,
+                                         const float*, const float*, int64_t, int64_t, int64_t, int64_t, bool,
                                          const float*);
 template void group_norm_backward<double>(double*, double*, double*, const double*, const double*, const double*,
-                                          const double*, const double*, int64_t, int64_t, int64_t, int64_t,
+                                          const double*, const double*, int64_t, int64_t, int64_t, int64_t, bool,
                                           const double*);
 
 }  // namespace t2m::fused

@@ -15,11 +15,13 @@ void group_norm_forward(T* out, T* mean, T* rstd, const T* inp, const T* weight,
                         int64_t C, int64_t Tlen, int64_t G, T eps, bool relu = false);
 
 // dout, inp (B, C, T); weight (C) or null; mean/rstd (B, G). dinp (B, C, T) written; dweight/dbias (C)
-// accumulated, each may be null. relu_out (B, C, T) or null: the output of a ReLU that followed the norm; where it
-// is not > 0 the gradient is taken as 0 (GroupNorm -> ReLU backward in one pass, no masked copy of dout).
+// accumulated, each may be null. relu: the forward ran with relu (bias (C) or null: the forward's bias); where
+// its output was not > 0 the gradient is taken as 0 (GroupNorm -> ReLU backward in one pass). The output's sign
+// is recomputed from inp, mean, rstd, weight and bias with the forward's operations (the same bits), rather than
+// read back: one stream less.
 template <typename T>
 void group_norm_backward(T* dinp, T* dweight, T* dbias, const T* dout, const T* inp, const T* weight,
                          const T* mean, const T* rstd, int64_t B, int64_t C, int64_t Tlen, int64_t G,
-                         const T* relu_out = nullptr);
+                         bool relu = false, const T* bias = nullptr);
 
 }  // namespace t2m::fused
