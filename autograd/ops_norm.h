@@ -10,8 +10,9 @@
 //   x (B, C, T) (or (B, C): T = 1); C divisible by groups; weight, bias (C) or undefined. Statistics over the
 //   C/groups channels x T frames of each (batch, group).
 // group_norm_relu(...) = relu(group_norm(...)) as one op: the ReLU is applied in place on the normalised output
-//   and the backward masks the gradient by (out > 0) before the GroupNorm backward, so no separate ReLU tensor
-//   is kept (the VBB residual block's GroupNorm -> ReLU). relu'(0) = 0 as in ag::relu.
+//   and the backward takes the gradient as 0 where that output was not > 0 (its sign recomputed from x and the
+//   saved statistics, tensor/fused/group_norm.h), so no ReLU tensor is kept for it (the VBB residual block's
+//   GroupNorm -> ReLU). relu'(0) = 0 as in ag::relu.
 //
 // Inputs of any strides are accepted (copied to contiguous once when needed); outputs are fresh contiguous
 // tensors. The node keeps the contiguous input, the per-row mean/rstd and the weight.
