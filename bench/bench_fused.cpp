@@ -84,21 +84,29 @@ void BM_layer_norm_fwd_bwd(benchmark::State& st) {
 }
 BENCHMARK(BM_layer_norm_fwd_bwd)->Args({4096, 512})->Unit(benchmark::kMillisecond)->UseRealTime();
 
-// GroupNorm(32, 256) on (B, 256, T), fwd + bwd.
+// GroupNorm(32, 256) on (B, 256, T), fwd + bwd; relu 1: the fused GroupNorm -> ReLU of the VBB's residual blocks.
 void BM_group_norm_fwd_bwd(benchmark::State& st) {
   const int64_t B = st.range(0), C = 256, T = st.range(1), G = 32, n = B * C * T;
+  const bool relu = st.range(2) != 0;
   auto x = rand_vec(n, 9), w = rand_vec(C, 10), b = rand_vec(C, 11), dy = rand_vec(n, 12);
   std::vector<float> y(n), mean(B * G), rstd(B * G), dx(n), dw(C), db(C);
   LoopTimer timer;
   for (auto _ : st) {
-    group_norm_forward<float>(y.data(), mean.data(), rstd.data(), x.data(), w.data(), b.data(), B, C, T, G, 1e-5f);
+    group_norm_forward<float>(y.data(), mean.data(), rstd.data(), x.data(), w.data(), b.data(), B, C, T, G, 1e-5f,
+                              relu);
     group_norm_backward<float>(dx.data(), dw.data(), db.data(), dy.data(), x.data(), w.data(), mean.data(),
-                               rstd.data(), B, C, T, G);
+                               rstd.data(), B, C, T, G, relu, b.data());
     benchmark::DoNotOptimize(dx.data());
   }
   set_counters(st, timer, 0, 5.0 * n * sizeof(float));
 }
-BENCHMARK(BM_group_norm_fwd_bwd)->Args({32, 64})->Args({256, 32})->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_group_norm_fwd_bwd)
+    ->ArgNames({"B", "T", "relu"})
+    ->Args({32, 64, 0})
+    ->Args({256, 32, 0})
+    ->Args({256, 32, 1})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 // softmax attention, 64 (batch*heads) x T64 x d64, fwd + bwd (dq, dk, dv).
 void BM_attention_fwd_bwd(benchmark::State& st) {
