@@ -15,7 +15,8 @@
 //   GroupNorm -> ReLU). relu'(0) = 0 as in ag::relu.
 //
 // Inputs of any strides are accepted (copied to contiguous once when needed); outputs are fresh contiguous
-// tensors. The node keeps the contiguous input, the per-row mean/rstd and the weight.
+// tensors. The node keeps the contiguous input, the per-row mean/rstd and the weight (group_norm_relu also the
+// bias, for the output's sign).
 // Errors (t2m::Error, message starts with the op name and names the shapes): non-float or mixed dtypes, x with
 // too few dims or a zero-sized normalised dim, weight/bias not (C), C not divisible by groups, groups < 1, eps < 0.
 #pragma once
