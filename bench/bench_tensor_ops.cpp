@@ -4,6 +4,9 @@
 // Run: build-*/bench_tensor_ops [--benchmark_filter=...]; thread count from OMP_NUM_THREADS.
 #include <benchmark/benchmark.h>
 
+#include <cstdint>
+#include <vector>
+
 #include "tensor/ops.h"
 #include "tensor/rng.h"
 
@@ -101,6 +104,20 @@ void BM_RandNormal(benchmark::State& st) {
   st.SetItemsProcessed(st.iterations() * (1 << 20));
 }
 BENCHMARK(BM_RandNormal);
+
+// The Philox words behind every draw (dropout masks, rand_*): 1024 blocks (4096 words, an L1-resident buffer) per
+// call, one thread.
+void BM_philox_blocks(benchmark::State& st) {
+  std::vector<uint32_t> w(4 * 1024);
+  uint64_t c = 0;
+  for (auto _ : st) {
+    philox4x32_blocks(7, c, 1024, w.data());
+    c += 1024;
+    benchmark::DoNotOptimize(w.data());
+  }
+  st.SetItemsProcessed(st.iterations() * 4 * 1024);  // words
+}
+BENCHMARK(BM_philox_blocks);
 
 }  // namespace
 

@@ -23,7 +23,7 @@ TEST(RngBlocks, MatchScalarPhiloxWordForWord) {
   const uint64_t starts[] = {0, 7, 0xFFFFFFF8ull, 0x1FFFFFFF0ull, ~0ull - 40};  // low-word carry at 2^32, 2^33
   for (uint64_t seed : seeds)
     for (uint64_t c0 : starts)
-      for (int64_t n : {0, 1, 15, 16, 17, 33, 100}) {
+      for (int64_t n : {0, 1, 15, 16, 17, 31, 32, 33, 48, 64, 65, 100}) {
         std::vector<uint32_t> got(4 * n + 4, 0xDEADBEEFu);
         philox4x32_blocks(seed, c0, n, got.data());
         const auto want = scalar_blocks(seed, c0, n);
