@@ -15,8 +15,8 @@ namespace {
 
 // hi and lo 32-bit halves of the 16 lane products a * m (m_odd: m with its odd lanes moved to the even ones): two
 // 32 x 32 -> 64-bit multiplies (the even lanes, then the odd ones swapped down), and each half gathered from both by
-// one two-source permute. Fewer port-0/5 operations than shifting and blending the halves into place: with two
-// groups in flight, 1.49 -> 1.76 (shifts and blends) -> see BM_philox_blocks in bench/RESULTS.md.
+// one two-source permute: fewer port-0/5 operations than shifting and blending the halves into place (with two
+// groups in flight, BM_philox_blocks 1.76 -> 2.09 G words/s on the Intel host).
 struct HiLoIndex {
   __m512i lo = _mm512_setr_epi32(0, 16, 2, 18, 4, 20, 6, 22, 8, 24, 10, 26, 12, 28, 14, 30);
   __m512i hi = _mm512_setr_epi32(1, 17, 3, 19, 5, 21, 7, 23, 9, 25, 11, 27, 13, 29, 15, 31);
@@ -78,7 +78,7 @@ inline void store16(const Lanes16& s, uint32_t* o) {
 
 // out[4 b + i] = word i of philox(key = seed, ctr = {lo32(c), hi32(c), 0, 0}), c = counter0 + b, for b < 16 n16.
 // Groups of 16 counters go two at a time: the ten rounds of one group are a chain of dependent multiplies, and a
-// second independent chain beside it keeps the multipliers busy (1.6x the words per second of one group at a time
+// second independent chain beside it keeps the multipliers busy (1.49 -> 1.76 G words/s against one group at a time
 // on the Intel host; bench_tensor_ops BM_philox_blocks).
 void philox4x32_blocks_avx512(uint64_t seed, uint64_t counter0, int64_t n16, uint32_t* out) {
   const __m512i m0 = _mm512_set1_epi32((int)0xD2511F53u), m1 = _mm512_set1_epi32((int)0xCD9E8D57u);
