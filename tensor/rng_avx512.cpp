@@ -4,8 +4,9 @@
 
 #include <cstdint>
 
-// GCC 12's AVX-512 headers build shift/unpack results on a self-initialised "undefined" vector, which
-// -Wmaybe-uninitialized reports once inlined here (a known false positive).
+// GCC 12's AVX-512 headers build shift/unpack/shuffle results on a self-initialised "undefined" vector, which
+// -Wmaybe-uninitialized (and, for _mm512_shuffle_epi32, -Wuninitialized) reports once inlined here (a known false
+// positive).
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #pragma GCC diagnostic ignored "-Wuninitialized"
 
