@@ -14,12 +14,15 @@
 #include <numeric>
 
 #include "tensor/kernels.h"
+#include "tensor/rng_philox.h"
 
 namespace t2m {
 namespace {
 
-constexpr uint32_t kPhiloxM0 = 0xD2511F53u, kPhiloxM1 = 0xCD9E8D57u;  // round multipliers
-constexpr uint32_t kPhiloxW0 = 0x9E3779B9u, kPhiloxW1 = 0xBB67AE85u;  // Weyl key increments
+using rng_detail::kPhiloxM0;
+using rng_detail::kPhiloxM1;
+using rng_detail::kPhiloxW0;
+using rng_detail::kPhiloxW1;
 constexpr double kTwoPi = 6.283185307179586476925286766559;
 
 // One Philox S-box round: two 32x32->64 multiplies, then the word permutation with key mixing.

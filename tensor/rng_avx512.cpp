@@ -4,6 +4,8 @@
 
 #include <cstdint>
 
+#include "tensor/rng_philox.h"
+
 // GCC 12's AVX-512 headers build shift/unpack/shuffle results on a self-initialised "undefined" vector, which
 // -Wmaybe-uninitialized (and, for _mm512_shuffle_epi32, -Wuninitialized) reports once inlined here (a known false
 // positive).
@@ -82,15 +84,15 @@ inline void store16(const Lanes16& s, uint32_t* o) {
 // second independent chain beside it keeps the multipliers busy (1.49 -> 1.76 G words/s against one group at a time
 // on the Intel host; bench_tensor_ops BM_philox_blocks).
 void philox4x32_blocks_avx512(uint64_t seed, uint64_t counter0, int64_t n16, uint32_t* out) {
-  const __m512i m0 = _mm512_set1_epi32((int)0xD2511F53u), m1 = _mm512_set1_epi32((int)0xCD9E8D57u);
+  const __m512i m0 = _mm512_set1_epi32((int)kPhiloxM0), m1 = _mm512_set1_epi32((int)kPhiloxM1);
   const __m512i m[4] = {m0, _mm512_shuffle_epi32(m0, _MM_PERM_CDAB), m1, _mm512_shuffle_epi32(m1, _MM_PERM_CDAB)};
   const HiLoIndex ix;
   __m512i k0[10], k1[10];  // the round keys
   uint32_t r0 = (uint32_t)seed, r1 = (uint32_t)(seed >> 32);
   for (int r = 0; r < 10; ++r) {
     if (r > 0) {
-      r0 += 0x9E3779B9u;
-      r1 += 0xBB67AE85u;
+      r0 += kPhiloxW0;
+      r1 += kPhiloxW1;
     }
     k0[r] = _mm512_set1_epi32((int)r0);
     k1[r] = _mm512_set1_epi32((int)r1);
