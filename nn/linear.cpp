@@ -27,11 +27,12 @@ void linear_fwd(T* y, const T* x, const T* w, const T* b, int64_t N, int64_t in,
     gemm_bias(false, true, N, out, in, (T)1, x, in, w, in, b, y, out);
 }
 
-// g (N, out), x (N, in), w (out, in). dx (N, in) = g w; dw (out, in) = g^T x; db (out) = sum_n g[n]. Null skips.
+// g (N, out), x (N, in), w (out, in). dx (N, in) = g w; dw (out, in) = g^T x (streamed to memory when large: the
+// optimizer reads it next, after the rest of the backward pass); db (out) = sum_n g[n]. Null skips.
 template <typename T>
 void linear_bwd(T* dx, T* dw, T* db, const T* g, const T* x, const T* w, int64_t N, int64_t in, int64_t out) {
   if (dx != nullptr) gemm(false, false, N, in, out, (T)1, g, out, w, in, (T)0, dx, in);
-  if (dw != nullptr) gemm(true, false, out, in, N, (T)1, g, out, x, in, (T)0, dw, in);
+  if (dw != nullptr) gemm_stream(true, false, out, in, N, (T)1, g, out, x, in, dw, in);
   if (db != nullptr) {
     // Columns split across threads; each column summed over rows in order (same result for any thread count), a
     // block of kCols columns at a time in registers (summing into db row after row was bound by its stores).

@@ -15,6 +15,7 @@
 #include <tuple>
 
 #include <unistd.h>
+#include <xmmintrin.h>
 
 #include "tensor/allocator.h"
 #include "tensor/cpu_features.h"
@@ -95,8 +96,12 @@ const MicroKernel<double>& select_kernel<double>() {
 // 1.5-4 % faster (1024x1024x614:nt 299 -> 310 GFLOP/s) and fm-paper B32 Tm8 612-624 -> 602-605 ms, but 32-row
 // products 5-15 % slower (32x256x1536 199-209 -> 172-174); with 1 MB of L2 (the AMD host) it stays at one block.
 std::atomic<int> g_forced_depth{0};
+int64_t l2_bytes() {
+  static const int64_t b = std::max<int64_t>(sysconf(_SC_LEVEL2_CACHE_SIZE), 256 << 10);
+  return b;
+}
 int auto_pack_depth() {
-  static const int d = sysconf(_SC_LEVEL2_CACHE_SIZE) >= (2l << 20) ? 2 : 1;
+  static const int d = l2_bytes() >= (2l << 20) ? 2 : 1;
   return d;
 }
 template <typename T>
@@ -104,6 +109,19 @@ int64_t pack_depth(int64_t M, int64_t MC) {
   if (sizeof(T) != sizeof(float)) return 1;
   const int f = g_forced_depth.load(std::memory_order_relaxed);
   return f ? f : M > MC ? auto_pack_depth() : 1;
+}
+
+// ---- non-temporal C stores (gemm_stream) ----------------------------------------------------------------------
+
+// Whether the packed path writes C's full tiles with non-temporal stores: asked for (gemm_stream), the kernel has
+// them, each tile is one kernel call (beta == 0, no epilogue, K within one arithmetic block), C is at least as large
+// as the L2 (it would not stay there anyway) and its rows are aligned for the stores. Edge tiles stay plain.
+template <typename T>
+bool streams_c(const MicroKernel<T>& uk, const GemmArgs<T>& g) {
+  return g.stream && uk.kernel_stream && g.beta == T(0) && !g.bias && !g.relu && g.K <= uk.kc && !g.segmented() &&
+         g.M * g.N * int64_t(sizeof(T)) >= l2_bytes() &&
+         reinterpret_cast<uintptr_t>(g.C) % gemm_detail::kStreamAlign == 0 &&
+         g.ldc * int64_t(sizeof(T)) % gemm_detail::kStreamAlign == 0;
 }
 
 // ---- C = beta C (K == 0 or alpha == 0) -----------------------------------------------------------------------
@@ -239,7 +257,8 @@ void relu_c(const GemmArgs<T>& g) {
 // tile so that the micro-kernel always runs full-size.
 template <typename T>
 void macro_kernel(const MicroKernel<T>& uk, int64_t mc, int64_t nc, int64_t kc, const T* ap, const T* bp, T* c,
-                  int64_t ldc, const GemmColumns& cs, int64_t j0, T alpha, T beta, const T* bias, bool relu) {
+                  int64_t ldc, const GemmColumns& cs, int64_t j0, T alpha, T beta, const T* bias, bool relu,
+                  bool stream) {
   const int mr = uk.mr, nr = uk.nr;
   const int64_t ks = uk.kc;  // the arithmetic K block
   alignas(64) T tile[32 * 64];
@@ -268,7 +287,7 @@ void macro_kernel(const MicroKernel<T>& uk, int64_t mc, int64_t nc, int64_t kc, 
       T* cc = c + ir * ldc + segment_col(cs, j0 + jr);
       const int s = !one_run || n < nr ? -1 : m == uk.short_m[0] ? 0 : m == uk.short_m[1] ? 1 : -1;
       if (one_run && n == nr && (m == mr || (s >= 0 && uk.short_kernel[s]))) {  // straight into C
-        const auto kernel = m == mr ? uk.kernel : uk.short_kernel[s];
+        const auto kernel = m < mr ? uk.short_kernel[s] : stream && kc <= ks ? uk.kernel_stream : uk.kernel;
         if (beta != T(0))  // the kernel reads C only at its end: start pulling the tile in (beta == 0 only writes)
           for (int64_t i = 0; i < m; ++i) {
             __builtin_prefetch(cc + i * ldc, 1);
@@ -348,6 +367,7 @@ void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
   // panels are runs of whole source rows), each is packed right before its use into an L2-resident buffer, instead
   // of a whole B block (1.5-3 MB per thread) written out to L3 and read back.
   const bool lazy_b = steal_n && nt > 1 && g.M <= MC && g.tb;
+  const bool stream = streams_c(uk, g);  // each thread fences its streamed stores before the region ends
   T* shared_bp = split_m ? tls_pack_b.get<T>(KC * round_up(std::min(NC, g.N), nr)) : nullptr;
   T* shared_ap = share_a ? tls_pack_a.get<T>(round_up(g.M, mr) * KC) : nullptr;
   std::unique_ptr<StealRange[]> ranges((split_m || steal_n) && nt > 1 ? new StealRange[nt] : nullptr);
@@ -406,7 +426,8 @@ void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
           for (int64_t ic = m0; ic < m1; ic += MC) {
             const int64_t mc = std::min(MC, m1 - ic);
             pack_a_block(uk, g, ic, mc, pc, kc, ap);
-            macro_kernel(uk, mc, nc, kc, ap, bp, g.C + ic * g.ldc, g.ldc, g.cc, jc, g.alpha, beta, bias, relu);
+            macro_kernel(uk, mc, nc, kc, ap, bp, g.C + ic * g.ldc, g.ldc, g.cc, jc, g.alpha, beta, bias, relu,
+                         stream);
           }
         } else {
           // Thread u's share: rows [r0, r1) against the columns [c, c + n) whose B panels are packed at b (split by
@@ -439,7 +460,7 @@ void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
               const int64_t n = std::min(nr, sh.n - p * nr);
               if (lazy_b) pack_b_block(uk, g, pc, kc, sh.c + p * nr, n, bp);
               macro_kernel(uk, mc, n, kc, a, lazy_b ? bp : sh.b + p * kc * nr, g.C + ic * g.ldc, g.ldc,
-                           g.cc, sh.c + p * nr, g.alpha, beta, bias_u ? bias_u + p * nr : nullptr, relu);
+                           g.cc, sh.c + p * nr, g.alpha, beta, bias_u ? bias_u + p * nr : nullptr, relu, stream);
             }
           }
         }
@@ -450,6 +471,7 @@ void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
         }
       }
     }
+    if (stream) _mm_sfence();  // the non-temporal stores are visible before anyone reads C
   }
 }
 
@@ -460,27 +482,33 @@ int threads_for(int64_t work) {
   return std::max(1, get_num_threads());
 }
 
+// Returns whether C was streamed (streams_c).
 template <typename T>
-void gemm_run(const GemmArgs<T>& g, int nt) {
-  if (g.M == 0 || g.N == 0) return;
+bool gemm_run(const GemmArgs<T>& g, int nt) {
+  if (g.M == 0 || g.N == 0) return false;
   if (g.K == 0 || g.alpha == T(0)) {
     scale_c(g);
   } else if (is_small(g) && !g.segmented()) {
     gemm_small(g, nt);
   } else {
-    return gemm_packed(select_kernel<T>(), g, nt);  // the ReLU, if any, ran on each tile
+    gemm_packed(select_kernel<T>(), g, nt);  // the ReLU, if any, ran on each tile
+    return streams_c(select_kernel<T>(), g);
   }
   if (g.relu) relu_c(g);
+  return false;
 }
 
-// One product through the public entry points; `op` names the entry point in errors.
+// One product through the public entry points; `op` names the entry point in errors. Returns whether C was
+// streamed (gemm_stream).
 template <typename T>
-void gemm_one(bool ta, bool tb, int64_t M, int64_t N, int64_t K, T alpha, const T* A, int64_t lda, const T* B,
+bool gemm_one(bool ta, bool tb, int64_t M, int64_t N, int64_t K, T alpha, const T* A, int64_t lda, const T* B,
               int64_t ldb, T beta, T* C, int64_t ldc, const T* bias = nullptr, GemmColumns ac = {},
-              GemmColumns bc = {}, GemmColumns cc = {}, const char* op = "gemm", bool relu = false) {
-  const GemmArgs<T> g{ta, tb, M, N, K, alpha, A, lda, B, ldb, bias ? T(0) : beta, C, ldc, bias, relu, ac, bc, cc};
+              GemmColumns bc = {}, GemmColumns cc = {}, const char* op = "gemm", bool relu = false,
+              bool stream = false) {
+  const GemmArgs<T> g{ta, tb, M, N, K, alpha, A, lda, B, ldb, bias ? T(0) : beta, C, ldc, bias, relu, ac, bc, cc,
+                      stream};
   check_args(op, g);
-  gemm_run(g, threads_for(M * N * K));
+  return gemm_run(g, threads_for(M * N * K));
 }
 
 template <typename T>
@@ -528,6 +556,16 @@ void gemm_bias(bool ta, bool tb, int64_t M, int64_t N, int64_t K, float alpha, c
 void gemm_bias(bool ta, bool tb, int64_t M, int64_t N, int64_t K, double alpha, const double* A, int64_t lda,
                const double* B, int64_t ldb, const double* bias, double* C, int64_t ldc) {
   gemm_one(ta, tb, M, N, K, alpha, A, lda, B, ldb, 0.0, C, ldc, bias);
+}
+bool gemm_stream(bool ta, bool tb, int64_t M, int64_t N, int64_t K, float alpha, const float* A, int64_t lda,
+                 const float* B, int64_t ldb, float* C, int64_t ldc) {
+  return gemm_one(ta, tb, M, N, K, alpha, A, lda, B, ldb, 0.0f, C, ldc, static_cast<const float*>(nullptr), {}, {},
+                  {}, "gemm_stream", false, true);
+}
+bool gemm_stream(bool ta, bool tb, int64_t M, int64_t N, int64_t K, double alpha, const double* A, int64_t lda,
+                 const double* B, int64_t ldb, double* C, int64_t ldc) {
+  return gemm_one(ta, tb, M, N, K, alpha, A, lda, B, ldb, 0.0, C, ldc, static_cast<const double*>(nullptr), {}, {},
+                  {}, "gemm_stream", false, true);
 }
 void gemm_bias_relu(bool ta, bool tb, int64_t M, int64_t N, int64_t K, float alpha, const float* A, int64_t lda,
                     const float* B, int64_t ldb, const float* bias, float* C, int64_t ldc) {

@@ -34,6 +34,16 @@ void gemm_bias_relu(bool trans_a, bool trans_b, int64_t M, int64_t N, int64_t K,
 void gemm_bias_relu(bool trans_a, bool trans_b, int64_t M, int64_t N, int64_t K, double alpha, const double* A,
                     int64_t lda, const double* B, int64_t ldb, const double* bias, double* C, int64_t ldc);
 
+// C = alpha * op(A) op(B) (beta = 0) for a C written once and not read again soon, e.g. a weight gradient, next
+// read by the optimizer after the whole backward pass. When C is at least as large as the L2, K fits one kernel
+// block (512) and C's rows are 64-byte aligned (float only), its full tiles go to memory with non-temporal stores: no
+// read for ownership of C's lines, and the operands stay in cache. Otherwise it is gemm. The same bits as gemm with
+// beta = 0. Returns whether the non-temporal stores were used.
+bool gemm_stream(bool trans_a, bool trans_b, int64_t M, int64_t N, int64_t K, float alpha, const float* A,
+                 int64_t lda, const float* B, int64_t ldb, float* C, int64_t ldc);
+bool gemm_stream(bool trans_a, bool trans_b, int64_t M, int64_t N, int64_t K, double alpha, const double* A,
+                 int64_t lda, const double* B, int64_t ldb, double* C, int64_t ldc);
+
 // Batched: for b in [0, batch): C_b = alpha * op(A_b) op(B_b) + beta * C_b with A_b = A + b*stride_a, etc.
 // A stride of 0 broadcasts one matrix over the batch. Threads split across the batch or within each GEMM.
 void gemm_batched(bool trans_a, bool trans_b, int64_t batch, int64_t M, int64_t N, int64_t K, float alpha,

@@ -29,6 +29,7 @@ struct GemmArgs {
   const T* bias = nullptr;  // length N, added to every row of C; only with beta == 0 (gemm_bias)
   bool relu = false;        // C = max(C, 0) once the product is complete (gemm_bias_relu)
   GemmColumns ac{}, bc{}, cc{};  // the stored matrices' column segments (gemm_segmented); plain by default
+  bool stream = false;           // C is written once and not read again soon (gemm_stream)
   bool segmented() const { return ac.len || bc.len || cc.len; }
   const T* a_at(int64_t i, int64_t k) const {  // &op(A)[i,k]
     return ta ? A + k * lda + segment_col(ac, i) : A + i * lda + segment_col(ac, k);

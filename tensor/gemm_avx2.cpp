@@ -22,6 +22,7 @@ struct Ymm32 {
   static Reg load(const T* p) { return _mm256_load_ps(p); }
   static Reg loadu(const T* p) { return _mm256_loadu_ps(p); }
   static void storeu(T* p, Reg r) { _mm256_storeu_ps(p, r); }
+  static void stream(T* p, Reg r) { _mm256_stream_ps(p, r); }
   static Reg bcast(const T* p) { return _mm256_broadcast_ss(p); }
   static Reg set1(T x) { return _mm256_set1_ps(x); }
   static Reg fmadd(Reg a, Reg b, Reg c) { return _mm256_fmadd_ps(a, b, c); }
@@ -62,7 +63,8 @@ const MicroKernel<float>& avx2_kernel_f32() {
                                     {2, 4},
                                     {&simd_kernel<Ymm32, 2, kNvF, false, kMrF>,
                                      &simd_kernel<Ymm32, 4, kNvF, false, kMrF>},
-                                    &pack_a_f32, &pack_b_f32};
+                                    &pack_a_f32, &pack_b_f32,
+                                    &simd_kernel<Ymm32, kMrF, kNvF, false, kMrF, true>};
   return k;
 }
 const MicroKernel<double>& avx2_kernel_f64() {

@@ -24,6 +24,7 @@ struct Zmm32 {
   static Reg load(const T* p) { return _mm512_load_ps(p); }
   static Reg loadu(const T* p) { return _mm512_loadu_ps(p); }
   static void storeu(T* p, Reg r) { _mm512_storeu_ps(p, r); }
+  static void stream(T* p, Reg r) { _mm512_stream_ps(p, r); }
   static Reg bcast(const T* p) { return _mm512_set1_ps(*p); }
   static Reg set1(T x) { return _mm512_set1_ps(x); }
   static Reg fmadd(Reg a, Reg b, Reg c) { return _mm512_fmadd_ps(a, b, c); }
@@ -187,7 +188,8 @@ const MicroKernel<float>& avx512_kernel_f32() {
                                     {4, 8},
                                     {&simd_kernel<Zmm32, 4, kNvF, true, kMrF>,
                                      &simd_kernel<Zmm32, 8, kNvF, true, kMrF>},
-                                    &pack_a_f32, &pack_b_f32};
+                                    &pack_a_f32, &pack_b_f32,
+                                    &simd_kernel<Zmm32, kMrF, kNvF, true, kMrF, true>};
   return k;
 }
 const MicroKernel<double>& avx512_kernel_f64() {

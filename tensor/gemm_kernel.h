@@ -32,7 +32,12 @@ struct MicroKernel {
   void (*short_kernel[2])(int64_t kc, const T* ap, const T* bp, T* c, int64_t ldc, T alpha, T beta, const T* bias);
   void (*pack_a)(bool trans, int64_t mc, int64_t kc, const T* a, int64_t lda, T* ap);
   void (*pack_b)(bool trans, int64_t kc, int64_t nc, const T* b, int64_t ldb, T* bp);
+  // The full tile's kernel with non-temporal stores (beta == 0, no bias, C rows aligned to kStreamAlign bytes): for
+  // a C written once and not read again soon (gemm_stream). Null: none, the plain kernel serves.
+  void (*kernel_stream)(int64_t kc, const T* ap, const T* bp, T* c, int64_t ldc, T alpha, T beta,
+                        const T* bias) = nullptr;
 };
+constexpr int kStreamAlign = 64;
 
 // Defined in gemm_avx512.cpp (requires avx512f at run time) and gemm_avx2.cpp (AVX2+FMA baseline).
 const MicroKernel<float>& avx512_kernel_f32();

@@ -2,7 +2,8 @@
 // traits type, instantiated by each ISA file (compiled with its own vector flags) for float and double.
 //
 // V provides: T (element), Reg (vector register), kLanes, zero(), load(p) (aligned), loadu(p), storeu(p, r),
-// bcast(p) (broadcast *p), set1(x), fmadd(a, b, c) = a*b + c, mul(a, b).
+// bcast(p) (broadcast *p), set1(x), fmadd(a, b, c) = a*b + c, mul(a, b); for the Stream variant also stream(p, r)
+// (a non-temporal store to an aligned p).
 #pragma once
 #include <cstdint>
 
@@ -14,8 +15,9 @@ namespace t2m::gemm_detail {
 // vectors of B, MR broadcasts of A, MR*NV FMAs into the accumulators; Prefetch pulls the A panel 8 and the B panel
 // 16 k steps ahead into L1 (a B micro-panel of kc = 512 is larger than L1, and the hardware prefetcher alone left
 // the fm/fb training steps ~1 % slower on the Intel host). Each C element gets the same FMA chain whatever MR and
-// AS, so a short kernel gives the full one's bits.
-template <typename V, int MR, int NV, bool Prefetch, int AS = MR>
+// AS, so a short kernel gives the full one's bits. Stream: with beta == 0 and no bias, the tile goes to memory with
+// non-temporal stores (V::stream; C's rows must be aligned to the vector width; the caller fences).
+template <typename V, int MR, int NV, bool Prefetch, int AS = MR, bool Stream = false>
 void simd_kernel(int64_t kc, const typename V::T* ap, const typename V::T* bp, typename V::T* c, int64_t ldc,
                  typename V::T alpha, typename V::T beta, const typename V::T* bias) {
   using R = typename V::Reg;
@@ -56,7 +58,12 @@ void simd_kernel(int64_t kc, const typename V::T* ap, const typename V::T* bp, t
 #pragma GCC unroll 32
     for (int i = 0; i < MR; ++i)
 #pragma GCC unroll 4
-      for (int v = 0; v < NV; ++v) V::storeu(c + i * ldc + L * v, V::mul(va, acc[i][v]));
+      for (int v = 0; v < NV; ++v) {
+        if constexpr (Stream)
+          V::stream(c + i * ldc + L * v, V::mul(va, acc[i][v]));
+        else
+          V::storeu(c + i * ldc + L * v, V::mul(va, acc[i][v]));
+      }
   } else {
     const R vb = V::set1(beta);
 #pragma GCC unroll 32
