@@ -2,16 +2,23 @@
 // /work/shared/anchor/REFERENCE.md (256³, 1024³, 1000³, 4096×512×512, 4096×2048×512; M×N×K), each as the forward
 // product A·B ("nn") and the two backward products A^T·B ("tn") and A·B^T ("nt"), on 1 and 2 threads.
 // Counters: GFLOP/s and % of FMA peak (220 GFLOP/s per thread). Wall-clock time per call (manual timing; the work is multi-threaded).
+// gemm/wgrad/{plain,stream}: weight-gradient products of fm-paper B32 (dW = dY^T X, out x in from K rows) written
+// by gemm (beta 0) or gemm_stream, C rotating over 16 matrices as a training step's gradients do (each written once).
 //
 //   build-x/bench_gemm --benchmark_filter='ours/1024' --benchmark_repetitions=5 --benchmark_report_aggregates_only
+//   build-x/bench_gemm --benchmark_filter='wgrad' --benchmark_repetitions=3
 #include <benchmark/benchmark.h>
 
 #include <chrono>
 #include <memory>
+#include <random>
 #include <string>
+#include <vector>
 
 #include "bench/lib/gemm_bench.h"
+#include "tensor/gemm.h"
 #include "tensor/parallel.h"
+#include "tensor/tensor.h"
 
 namespace {
 
@@ -54,9 +61,40 @@ void bm_eigen(benchmark::State& state, std::shared_ptr<GemmOperands> ops, int th
   });
 }
 
+// dW (out x in) = dY^T (out x rows) X (rows x in), 2 threads, into 16 rotating C matrices.
+void bm_wgrad(benchmark::State& state, int64_t out, int64_t in, int64_t rows, bool stream) {
+  t2m::set_num_threads(2);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  std::vector<float> dy(size_t(rows * out)), x(size_t(rows * in));
+  for (auto& v : dy) v = u(rng);
+  for (auto& v : x) v = u(rng);
+  std::vector<t2m::Tensor> dw;
+  for (int i = 0; i < 16; ++i) dw.push_back(t2m::Tensor::zeros({out, in}));
+  size_t next = 0;
+  const GemmShape s{out, in, rows, true, false};
+  timed_loop(state, s, 2, [&] {
+    float* c = dw[next++ % dw.size()].data<float>();
+    if (stream)
+      t2m::gemm_stream(true, false, out, in, rows, 1.0f, dy.data(), out, x.data(), in, c, in);
+    else
+      t2m::gemm(true, false, out, in, rows, 1.0f, dy.data(), out, x.data(), in, 0.0f, c, in);
+    benchmark::ClobberMemory();
+  });
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
+  struct Wgrad { int64_t out, in, rows; };
+  for (const Wgrad w : {Wgrad{3072, 512, 32}, Wgrad{2048, 512, 256}, Wgrad{512, 2048, 512}})
+    for (bool stream : {false, true}) {
+      const std::string name = std::string("gemm/wgrad/") + (stream ? "stream/" : "plain/") + std::to_string(w.out) +
+                               "x" + std::to_string(w.in) + "x" + std::to_string(w.rows);
+      benchmark::RegisterBenchmark(name.c_str(), bm_wgrad, w.out, w.in, w.rows, stream)
+          ->UseManualTime()
+          ->Unit(benchmark::kMillisecond);
+    }
   for (const GemmShape& s : t2m::bench::gemm_all_shapes()) {
     auto ops = std::make_shared<GemmOperands>(s);  // shared by both libraries and thread counts
     for (int threads : {1, 2}) {
