@@ -1,6 +1,6 @@
 // gemm.cpp — the GEMM driver: run-time kernel choice, the GotoBLAS/BLIS loop nest over packed panels (see
-// gemm_kernel.h for the layouts), the thread split, a cheap unpacked path for small shapes, the ReLU epilogue, and
-// the entry points (their argument checks are in gemm_args.h).
+// gemm_kernel.h for the layouts), the thread split, the choice of the unpacked path for small shapes (gemm_small.cpp),
+// the ReLU epilogue, non-temporal C stores (gemm_stream), and the entry points (argument checks in gemm_args.h).
 #include "tensor/gemm.h"
 
 #include <omp.h>
@@ -17,11 +17,12 @@
 #include <unistd.h>
 #include <xmmintrin.h>
 
-#include "tensor/allocator.h"
 #include "tensor/cpu_features.h"
 #include "tensor/gemm_args.h"
+#include "tensor/gemm_buffer.h"
 #include "tensor/gemm_columns.h"
 #include "tensor/gemm_kernel.h"
+#include "tensor/gemm_small.h"
 #include "tensor/gemm_steal.h"
 #include "tensor/parallel.h"
 #include "tensor/tensor.h"
@@ -30,7 +31,10 @@ namespace t2m {
 namespace {
 
 using gemm_detail::check_args;
+using gemm_detail::PackBuffer;
+using gemm_detail::gemm_small;
 using gemm_detail::GemmArgs;
+using gemm_detail::is_small;
 using gemm_detail::MicroKernel;
 using gemm_detail::segment_col;
 using gemm_detail::segment_left;
@@ -39,33 +43,7 @@ using gemm_detail::StealRange;
 int64_t ceil_div(int64_t a, int64_t b) { return (a + b - 1) / b; }
 int64_t round_up(int64_t a, int64_t b) { return ceil_div(a, b) * b; }
 
-// A grow-only, page-aligned scratch buffer per thread: packing never allocates once warm (first touches of
-// fresh pages are very expensive on these VMs, so the memory is kept for the life of the thread).
-struct PackBuffer {
-  void* ptr = nullptr;
-  size_t cap = 0;
-  PackBuffer() = default;
-  PackBuffer(const PackBuffer&) = delete;
-  PackBuffer& operator=(const PackBuffer&) = delete;
-  ~PackBuffer() { std::free(ptr); }
-  template <typename T>
-  T* get(int64_t n) {
-    const size_t bytes = size_t(std::max<int64_t>(n, 1)) * sizeof(T);
-    if (bytes > cap) {
-      std::free(ptr);
-      ptr = nullptr;
-      cap = 0;
-      // A few buffers per thread: whole huge pages (rounded up) rather than a small-page tail.
-      const size_t huge = size_t(2) << 20;
-      const size_t want = bytes >= huge ? (bytes + huge - 1) / huge * huge : (bytes + 4095) / 4096 * 4096;
-      ptr = aligned_alloc_pages(want, 4096);
-      if (!ptr) throw Error("gemm: cannot allocate " + std::to_string(want) + " bytes of packing buffer");
-      cap = want;
-    }
-    return static_cast<T*>(ptr);
-  }
-};
-thread_local PackBuffer tls_pack_a, tls_pack_b, tls_small;
+thread_local PackBuffer tls_pack_a, tls_pack_b;
 
 // ---- kernel choice -------------------------------------------------------------------------------------------
 
@@ -151,87 +129,6 @@ void scale_c(const GemmArgs<T>& g) {
   });
 }
 
-// ---- small shapes: no packing ---------------------------------------------------------------------------------
-
-// Matrix-vector-like or tiny problems: packing would cost more than it saves.
-template <typename T>
-bool is_small(const GemmArgs<T>& g) {
-  return g.M <= 2 || g.N <= 2 || g.K <= 2 || g.M * g.N * g.K <= 24 * 24 * 24;
-}
-
-// Rows [i0, i1) of C. op(B) row-major (no trans): C[i,:] accumulates a[i,k] * B[k,:] (vectorised along N).
-// op(B) = B^T, or a contiguous K×1 column: C[i,j] = dot(op(A)[i,:], column j of op(B)) with 8 partial sums
-// (vectorised along K).
-template <typename T>
-void gemm_small_rows(const GemmArgs<T>& g, int64_t i0, int64_t i1) {
-  T* tmp = tls_small.get<T>(g.N + g.K);
-  const bool dot_form = g.tb || (g.N == 1 && g.ldb == 1);
-  for (int64_t i = i0; i < i1; ++i) {
-    T* c = g.C + i * g.ldc;
-    if (!dot_form) {
-      std::fill(tmp, tmp + g.N, T(0));
-      for (int64_t k = 0; k < g.K; ++k) {
-        const T a = *g.a_at(i, k);
-        const T* b = g.B + k * g.ldb;
-        for (int64_t j = 0; j < g.N; ++j) tmp[j] = std::fma(a, b[j], tmp[j]);
-      }
-    } else {
-      const T* a = g.a_at(i, 0);
-      if (g.ta) {  // gather the strided row of op(A) once
-        T* arow = tmp + g.N;
-        for (int64_t k = 0; k < g.K; ++k) arow[k] = g.A[k * g.lda + i];
-        a = arow;
-      }
-      int64_t j = 0;
-      if (g.tb) {  // four columns at once: four independent accumulator chains, each summed as in the loop below
-        for (; j + 4 <= g.N; j += 4) {
-          const T* b = g.B + j * g.ldb;
-          T s[4][8] = {};
-          int64_t k = 0;
-          for (; k + 8 <= g.K; k += 8)
-            for (int q = 0; q < 4; ++q)
-              for (int u = 0; u < 8; ++u) s[q][u] = std::fma(a[k + u], b[q * g.ldb + k + u], s[q][u]);
-          for (; k < g.K; ++k)
-            for (int q = 0; q < 4; ++q) s[q][0] = std::fma(a[k], b[q * g.ldb + k], s[q][0]);
-          for (int q = 0; q < 4; ++q)
-            tmp[j + q] = ((s[q][0] + s[q][4]) + (s[q][1] + s[q][5])) + ((s[q][2] + s[q][6]) + (s[q][3] + s[q][7]));
-        }
-      }
-      for (; j < g.N; ++j) {
-        const T* b = g.tb ? g.B + j * g.ldb : g.B;
-        T s[8] = {};
-        int64_t k = 0;
-        for (; k + 8 <= g.K; k += 8)
-          for (int u = 0; u < 8; ++u) s[u] = std::fma(a[k + u], b[k + u], s[u]);
-        for (; k < g.K; ++k) s[0] = std::fma(a[k], b[k], s[0]);
-        tmp[j] = ((s[0] + s[4]) + (s[1] + s[5])) + ((s[2] + s[6]) + (s[3] + s[7]));
-      }
-    }
-    if (g.beta == T(0)) {
-      if (g.bias) {
-        for (int64_t j = 0; j < g.N; ++j) c[j] = std::fma(g.alpha, tmp[j], g.bias[j]);
-      } else {
-        for (int64_t j = 0; j < g.N; ++j) c[j] = g.alpha * tmp[j];
-      }
-    } else {
-      for (int64_t j = 0; j < g.N; ++j) c[j] = std::fma(g.alpha, tmp[j], g.beta * c[j]);
-    }
-  }
-}
-
-template <typename T>
-void gemm_small(const GemmArgs<T>& g, int nt) {
-  if (nt <= 1 || g.M < 2 * nt) {
-    gemm_small_rows(g, 0, g.M);
-    return;
-  }
-#pragma omp parallel num_threads(nt)
-  {
-    const int t = omp_get_thread_num(), team = omp_get_num_threads();
-    gemm_small_rows(g, g.M * t / team, g.M * (t + 1) / team);
-  }
-}
-
 // ---- the ReLU epilogue ----------------------------------------------------------------------------------------
 
 // c[j] = max(c[j], 0) over one run of n elements, with relu's NaN and -0 behaviour (x < 0 ? 0 : x).
@@ -287,7 +184,7 @@ void macro_kernel(const MicroKernel<T>& uk, int64_t mc, int64_t nc, int64_t kc, 
       T* cc = c + ir * ldc + segment_col(cs, j0 + jr);
       const int s = !one_run || n < nr ? -1 : m == uk.short_m[0] ? 0 : m == uk.short_m[1] ? 1 : -1;
       if (one_run && n == nr && (m == mr || (s >= 0 && uk.short_kernel[s]))) {  // straight into C
-        const auto kernel = m < mr ? uk.short_kernel[s] : stream && kc <= ks ? uk.kernel_stream : uk.kernel;
+        const auto kernel = m < mr ? uk.short_kernel[s] : stream ? uk.kernel_stream : uk.kernel;
         if (beta != T(0))  // the kernel reads C only at its end: start pulling the tile in (beta == 0 only writes)
           for (int64_t i = 0; i < m; ++i) {
             __builtin_prefetch(cc + i * ldc, 1);

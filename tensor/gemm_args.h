@@ -1,4 +1,4 @@
-// gemm_args.h — internal to tensor/gemm.cpp: one C = alpha op(A) op(B) + beta C problem as the driver passes it
+// gemm_args.h — internal to tensor/gemm*.cpp: one C = alpha op(A) op(B) + beta C problem as the driver passes it
 // around (GemmArgs: operands, strides, the bias and ReLU epilogues, column segments), and the checks of the public
 // entry points' arguments.
 #pragma once
