@@ -239,9 +239,9 @@ void pack_b_block(const MicroKernel<T>& uk, const GemmArgs<T>& g, int64_t pc, in
 // block, or from 512 rows its share of a shared A block; once its columns are done it steals (row block, B panel)
 // items of the others' columns, reading their packed B and packing the A block itself unless it is shared).
 // Every C tile is computed by one kernel call per K block from the same packed data whichever thread takes it, so
-// stealing (or sharing) does not change a bit of the result.
+// stealing (or sharing) does not change a bit of the result. Returns whether C was streamed (streams_c).
 template <typename T>
-void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
+bool gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
   // KC: the packed depth, one or more arithmetic K blocks of uk.kc (macro_kernel runs them one by one).
   const int64_t mr = uk.mr, nr = uk.nr, MC = uk.mc, KC = uk.kc * pack_depth<T>(g.M, uk.mc), NC = uk.nc;
   const int64_t m_tiles = ceil_div(g.M, mr), n_tiles = ceil_div(g.N, nr);
@@ -370,6 +370,7 @@ void gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
     }
     if (stream) _mm_sfence();  // the non-temporal stores are visible before anyone reads C
   }
+  return stream;
 }
 
 // Threads worth using for a problem of M·N·K multiply-adds (a fork/join costs a few microseconds).
@@ -388,8 +389,7 @@ bool gemm_run(const GemmArgs<T>& g, int nt) {
   } else if (is_small(g) && !g.segmented()) {
     gemm_small(g, nt);
   } else {
-    gemm_packed(select_kernel<T>(), g, nt);  // the ReLU, if any, ran on each tile
-    return streams_c(select_kernel<T>(), g);
+    return gemm_packed(select_kernel<T>(), g, nt);  // the ReLU, if any, ran on each tile
   }
   if (g.relu) relu_c(g);
   return false;
