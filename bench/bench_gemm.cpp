@@ -4,9 +4,13 @@
 // Counters: GFLOP/s and % of FMA peak (220 GFLOP/s per thread). Wall-clock time per call (manual timing; the work is multi-threaded).
 // gemm/wgrad/{plain,stream}: weight-gradient products of fm-paper B32 (dW = dY^T X, out x in from K rows) written
 // by gemm (beta 0) or gemm_stream, C rotating over 16 matrices as a training step's gradients do (each written once).
+// gemm/read_a/{packed,in_place}: fm-paper's forward (nt) and input-gradient (nn) products and 1024^3 on 2 threads
+// with A packed or read in place (gemm_force_read_a; the automatic choice reads in place with <= 512 columns per
+// thread).
 //
 //   build-x/bench_gemm --benchmark_filter='ours/1024' --benchmark_repetitions=5 --benchmark_report_aggregates_only
 //   build-x/bench_gemm --benchmark_filter='wgrad' --benchmark_repetitions=3
+//   build-x/bench_gemm --benchmark_filter='read_a' --benchmark_repetitions=5 --benchmark_report_aggregates_only
 #include <benchmark/benchmark.h>
 
 #include <chrono>
@@ -83,6 +87,17 @@ void bm_wgrad(benchmark::State& state, int64_t out, int64_t in, int64_t rows, bo
   });
 }
 
+void bm_read_a(benchmark::State& state, std::shared_ptr<GemmOperands> ops, const char* mode) {
+  t2m::set_num_threads(2);
+  t2m::gemm_force_read_a(mode);
+  timed_loop(state, ops->shape, 2, [&] {
+    ops->run();
+    benchmark::DoNotOptimize(ops->C.data());
+    benchmark::ClobberMemory();
+  });
+  t2m::gemm_force_read_a("auto");
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -95,6 +110,15 @@ int main(int argc, char** argv) {
           ->UseManualTime()
           ->Unit(benchmark::kMillisecond);
     }
+  for (const GemmShape& s : {GemmShape{512, 512, 2048, false, true}, GemmShape{512, 2048, 512, false, true},
+                             GemmShape{512, 512, 512, false, false}, GemmShape{768, 1024, 1024, false, true},
+                             GemmShape{768, 768, 3072, false, false}, GemmShape{1024, 1024, 1024, false, false}}) {
+    auto ops = std::make_shared<GemmOperands>(s);
+    for (const char* mode : {"packed", "in_place"})
+      benchmark::RegisterBenchmark(("gemm/read_a/" + std::string(mode) + "/" + s.name()).c_str(), bm_read_a, ops, mode)
+          ->UseManualTime()
+          ->Unit(benchmark::kMillisecond);
+  }
   for (const GemmShape& s : t2m::bench::gemm_all_shapes()) {
     auto ops = std::make_shared<GemmOperands>(s);  // shared by both libraries and thread counts
     for (int threads : {1, 2}) {

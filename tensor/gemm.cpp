@@ -102,6 +102,23 @@ bool streams_c(const MicroKernel<T>& uk, const GemmArgs<T>& g) {
          g.ldc * int64_t(sizeof(T)) % gemm_detail::kStreamAlign == 0;
 }
 
+// ---- op(A) read in place --------------------------------------------------------------------------------------
+
+// Whether the packed path reads op(A) = A where it is stored (MicroKernel::kernel_rows) instead of packing it: the
+// same FMAs in the same order, so the same bits; only the short last row panel of a block is packed. Packing A
+// costs one pass over A per product (per thread without a shared A), and pays off when each A panel meets many B
+// panels: with at most 512 columns per thread reading in place was 1-5 % faster (fm-paper's 512- and 768-row
+// products, 1024^3), with 768-2048 columns 1-2 % slower, at M = 32 (one row block) ~1 % slower (bench/RESULTS.md,
+// session 41). Forced (gemm_force_read_a) for tests and benchmarks.
+std::atomic<int> g_read_a{0};  // 0 automatic, 1 packed, 2 in place where possible
+std::atomic<int64_t> g_in_place_products{0};
+template <typename T>
+bool reads_a_in_place(const MicroKernel<T>& uk, const GemmArgs<T>& g, int64_t cols_per_thread, bool stream) {
+  if (!uk.kernel_rows || g.ta || g.ac.len || stream) return false;
+  const int f = g_read_a.load(std::memory_order_relaxed);
+  return f == 2 || (f == 0 && g.M > uk.mc && cols_per_thread <= 512);
+}
+
 // ---- C = beta C (K == 0 or alpha == 0) -----------------------------------------------------------------------
 
 // f(c, j0, n) over every row of C by runs of contiguous columns (the whole row when C is plain): c points at
@@ -146,16 +163,17 @@ void relu_c(const GemmArgs<T>& g) {
 // ---- the packed path ------------------------------------------------------------------------------------------
 
 // The C block at rows from `c` (row stride ldc), columns [j0, j0 + nc) (stored in segments cs), from packed A
-// (mc×kc) and packed B (kc×nc). The packed depth kc may span several arithmetic K blocks of uk.kc: each tile runs
-// one kernel call per K block, back to back (the tile stays in L1 between them), with beta and the bias on the
-// first and the ReLU after the last: every C element gets the same operations, in the same order, as with one
-// packing round per K block. A short last row panel whose height has a kernel of its own (MicroKernel::short_m)
-// runs it on C directly; other edge tiles, and tiles whose columns straddle a segment boundary, go through a local
-// tile so that the micro-kernel always runs full-size.
+// (mc×kc; or, when ar is not null, A's full row panels read in place, row i at ar + i * lda, and ap holding only
+// the short last panel) and packed B (kc×nc). The packed depth kc may span several arithmetic K blocks of uk.kc:
+// each tile runs one kernel call per K block, back to back (the tile stays in L1 between them), with beta and the
+// bias on the first and the ReLU after the last: every C element gets the same operations, in the same order, as
+// with one packing round per K block. A short last row panel whose height has a kernel of its own
+// (MicroKernel::short_m) runs it on C directly; other edge tiles, and tiles whose columns straddle a segment
+// boundary, go through a local tile so that the micro-kernel always runs full-size.
 template <typename T>
-void macro_kernel(const MicroKernel<T>& uk, int64_t mc, int64_t nc, int64_t kc, const T* ap, const T* bp, T* c,
-                  int64_t ldc, const GemmColumns& cs, int64_t j0, T alpha, T beta, const T* bias, bool relu,
-                  bool stream) {
+void macro_kernel(const MicroKernel<T>& uk, int64_t mc, int64_t nc, int64_t kc, const T* ap, const T* ar,
+                  int64_t lda, const T* bp, T* c, int64_t ldc, const GemmColumns& cs, int64_t j0, T alpha, T beta,
+                  const T* bias, bool relu, bool stream) {
   const int mr = uk.mr, nr = uk.nr;
   const int64_t ks = uk.kc;  // the arithmetic K block
   alignas(64) T tile[32 * 64];
@@ -180,7 +198,8 @@ void macro_kernel(const MicroKernel<T>& uk, int64_t mc, int64_t nc, int64_t kc, 
     const bool one_run = segment_left(cs, j0 + jr) >= n;  // the tile's columns are contiguous in C
     for (int64_t ir = 0; ir < mc; ir += mr) {
       const int64_t m = std::min<int64_t>(mr, mc - ir);
-      const T* a = ap + (ir / mr) * kc * mr;
+      const bool rows = ar && m == mr;  // A read in place (uk.kernel_rows); ap then holds only the short panel
+      const T* a = rows ? ar + ir * lda : ar ? ap : ap + (ir / mr) * kc * mr;
       T* cc = c + ir * ldc + segment_col(cs, j0 + jr);
       const int s = !one_run || n < nr ? -1 : m == uk.short_m[0] ? 0 : m == uk.short_m[1] ? 1 : -1;
       if (one_run && n == nr && (m == mr || (s >= 0 && uk.short_kernel[s]))) {  // straight into C
@@ -190,14 +209,22 @@ void macro_kernel(const MicroKernel<T>& uk, int64_t mc, int64_t nc, int64_t kc, 
             __builtin_prefetch(cc + i * ldc, 1);
             __builtin_prefetch(cc + i * ldc + nr - 1, 1);
           }
-        for (int64_t k0 = 0; k0 < kc; k0 += ks)
-          kernel(std::min(ks, kc - k0), a + k0 * mr, b + k0 * nr, cc, ldc, alpha, k0 == 0 ? beta : T(1),
-                 k0 == 0 ? bias_j : nullptr);
+        for (int64_t k0 = 0; k0 < kc; k0 += ks) {
+          const T b0 = k0 == 0 ? beta : T(1);
+          const T* bias0 = k0 == 0 ? bias_j : nullptr;
+          if (rows)
+            uk.kernel_rows(std::min(ks, kc - k0), a + k0, lda, b + k0 * nr, cc, ldc, alpha, b0, bias0);
+          else
+            kernel(std::min(ks, kc - k0), a + k0 * mr, b + k0 * nr, cc, ldc, alpha, b0, bias0);
+        }
         relu_rows(cc, m);
         continue;
       }
       for (int64_t k0 = 0; k0 < kc; k0 += ks) {
-        uk.kernel(std::min(ks, kc - k0), a + k0 * mr, b + k0 * nr, tile, nr, T(1), T(0), nullptr);
+        if (rows)
+          uk.kernel_rows(std::min(ks, kc - k0), a + k0, lda, b + k0 * nr, tile, nr, T(1), T(0), nullptr);
+        else
+          uk.kernel(std::min(ks, kc - k0), a + k0 * mr, b + k0 * nr, tile, nr, T(1), T(0), nullptr);
         const bool last = k0 + ks >= kc;
         for (int64_t i = 0; i < m; ++i)
           for (int64_t j = 0; j < n;) {  // by runs of contiguous columns: one, unless the tile straddles a segment
@@ -259,16 +286,27 @@ bool gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
   // With stealing and at least 512 rows, the column shares also share packed A: each K block of op(A) (all rows)
   // is packed once, cooperatively, instead of once per thread, at the cost of a second barrier per K block (which
   // made 256-row products 2-4 % slower, e.g. 256x256x4096:nt).
-  const bool share_a = steal_n && nt > 1 && g.M >= 512;
+  const bool stream = streams_c(uk, g);  // each thread fences its streamed stores before the region ends
+  // op(A) = A, plain: the kernel reads A's rows where they are stored; only a short last panel is packed.
+  const bool ua = reads_a_in_place(uk, g, split_n ? ceil_div(n_tiles, nt) * nr : g.N, stream);
+  if (ua) g_in_place_products.fetch_add(1, std::memory_order_relaxed);
+  const bool share_a = steal_n && nt > 1 && g.M >= 512 && !ua;
   // With one row block (M <= MC: the adaLN products, M = 32) every B panel is used once: when op(B) = B^T (its
   // panels are runs of whole source rows), each is packed right before its use into an L2-resident buffer, instead
   // of a whole B block (1.5-3 MB per thread) written out to L3 and read back.
   const bool lazy_b = steal_n && nt > 1 && g.M <= MC && g.tb;
-  const bool stream = streams_c(uk, g);  // each thread fences its streamed stores before the region ends
   T* shared_bp = split_m ? tls_pack_b.get<T>(KC * round_up(std::min(NC, g.N), nr)) : nullptr;
   T* shared_ap = share_a ? tls_pack_a.get<T>(round_up(g.M, mr) * KC) : nullptr;
   std::unique_ptr<StealRange[]> ranges((split_m || steal_n) && nt > 1 ? new StealRange[nt] : nullptr);
   std::unique_ptr<T*[]> own_bp(steal_n ? new T*[nt] : nullptr);  // each thread's packed B (split by columns)
+  // op(A)'s block [ic, ic + mc) x [pc, pc + kc) for macro_kernel: packed into ap, or (ua) only its short last
+  // panel packed, the full ones read in place.
+  auto prepare_a = [&](int64_t ic, int64_t mc, int64_t pc, int64_t kc, T* ap) {
+    if (!ua) return pack_a_block(uk, g, ic, mc, pc, kc, ap);
+    const int64_t full = mc / mr * mr;
+    if (full < mc) pack_a_block(uk, g, ic + full, mc - full, pc, kc, ap);
+  };
+  auto a_rows = [&](int64_t ic, int64_t pc) { return ua ? g.A + ic * g.lda + pc : nullptr; };
   auto cols_of = [&](int u, int team) {  // thread u's share of the columns (split by columns)
     return std::make_pair(std::min(g.N, n_tiles * u / team * nr), std::min(g.N, n_tiles * (u + 1) / team * nr));
   };
@@ -322,9 +360,9 @@ bool gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
         if (!ranges) {  // one thread, or split by columns without stealing: this thread's rows in order
           for (int64_t ic = m0; ic < m1; ic += MC) {
             const int64_t mc = std::min(MC, m1 - ic);
-            pack_a_block(uk, g, ic, mc, pc, kc, ap);
-            macro_kernel(uk, mc, nc, kc, ap, bp, g.C + ic * g.ldc, g.ldc, g.cc, jc, g.alpha, beta, bias, relu,
-                         stream);
+            prepare_a(ic, mc, pc, kc, ap);
+            macro_kernel(uk, mc, nc, kc, ap, a_rows(ic, pc), g.lda, bp, g.C + ic * g.ldc, g.ldc, g.cc, jc, g.alpha,
+                         beta, bias, relu, stream);
           }
         } else {
           // Thread u's share: rows [r0, r1) against the columns [c, c + n) whose B panels are packed at b (split by
@@ -350,14 +388,15 @@ bool gemm_packed(const MicroKernel<T>& uk, const GemmArgs<T>& g, int nt) {
             for (int64_t item; (item = ranges[u].take(k != 0)) >= 0;) {
               const int64_t ic = sh.r0 + item / pu * MC, mc = std::min(MC, sh.r1 - ic), p = item % pu;
               if (!share_a && ic != packed_ic) {
-                pack_a_block(uk, g, ic, mc, pc, kc, ap);
+                prepare_a(ic, mc, pc, kc, ap);
                 packed_ic = ic;
               }
               const T* a = share_a ? ap + ic * kc : ap;
               const int64_t n = std::min(nr, sh.n - p * nr);
               if (lazy_b) pack_b_block(uk, g, pc, kc, sh.c + p * nr, n, bp);
-              macro_kernel(uk, mc, n, kc, a, lazy_b ? bp : sh.b + p * kc * nr, g.C + ic * g.ldc, g.ldc,
-                           g.cc, sh.c + p * nr, g.alpha, beta, bias_u ? bias_u + p * nr : nullptr, relu, stream);
+              macro_kernel(uk, mc, n, kc, a, a_rows(ic, pc), g.lda, lazy_b ? bp : sh.b + p * kc * nr,
+                           g.C + ic * g.ldc, g.ldc, g.cc, sh.c + p * nr, g.alpha, beta,
+                           bias_u ? bias_u + p * nr : nullptr, relu, stream);
             }
           }
         }
@@ -501,6 +540,20 @@ int gemm_force_pack_depth(int blocks) {
     throw Error("gemm_force_pack_depth: blocks must be 0 (automatic) to 8, got " + std::to_string(blocks));
   g_forced_depth.store(blocks);
   return auto_pack_depth();
+}
+
+int64_t gemm_force_read_a(const char* mode) {
+  const std::string m = mode ? mode : "";
+  if (m == "auto") {
+    g_read_a.store(0);
+  } else if (m == "packed") {
+    g_read_a.store(1);
+  } else if (m == "in_place") {
+    g_read_a.store(2);
+  } else {
+    throw Error("gemm_force_read_a: unknown mode '" + m + "' (expected auto, packed or in_place)");
+  }
+  return g_in_place_products.load();
 }
 
 const char* gemm_kernel_name() { return chosen_kernel() == kAvx512 ? "avx512" : "avx2"; }

@@ -64,7 +64,8 @@ const MicroKernel<float>& avx2_kernel_f32() {
                                     {&simd_kernel<Ymm32, 2, kNvF, false, kMrF>,
                                      &simd_kernel<Ymm32, 4, kNvF, false, kMrF>},
                                     &pack_a_f32, &pack_b_f32,
-                                    &simd_kernel<Ymm32, kMrF, kNvF, false, kMrF, true>};
+                                    &simd_kernel<Ymm32, kMrF, kNvF, false, kMrF, true>,
+                                    &simd_kernel_rows<Ymm32, kMrF, kNvF, false>};
   return k;
 }
 const MicroKernel<double>& avx2_kernel_f64() {

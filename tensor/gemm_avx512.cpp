@@ -189,7 +189,8 @@ const MicroKernel<float>& avx512_kernel_f32() {
                                     {&simd_kernel<Zmm32, 4, kNvF, true, kMrF>,
                                      &simd_kernel<Zmm32, 8, kNvF, true, kMrF>},
                                     &pack_a_f32, &pack_b_f32,
-                                    &simd_kernel<Zmm32, kMrF, kNvF, true, kMrF, true>};
+                                    &simd_kernel<Zmm32, kMrF, kNvF, true, kMrF, true>,
+                                    &simd_kernel_rows<Zmm32, kMrF, kNvF, true>};
   return k;
 }
 const MicroKernel<double>& avx512_kernel_f64() {

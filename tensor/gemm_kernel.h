@@ -36,6 +36,10 @@ struct MicroKernel {
   // a C written once and not read again soon (gemm_stream). Null: none, the plain kernel serves.
   void (*kernel_stream)(int64_t kc, const T* ap, const T* bp, T* c, int64_t ldc, T alpha, T beta,
                         const T* bias) = nullptr;
+  // The full tile's kernel reading op(A) = A where it is stored (row i at a + i * lda, k contiguous) instead of a
+  // packed panel; the same bits as kernel. Null: none, A is packed.
+  void (*kernel_rows)(int64_t kc, const T* a, int64_t lda, const T* bp, T* c, int64_t ldc, T alpha, T beta,
+                      const T* bias) = nullptr;
 };
 constexpr int kStreamAlign = 64;
 
