@@ -439,6 +439,19 @@ void small_backward_all(T* dq, T* dk, T* dv, const T* dout, const T* att, const 
   });
 }
 
+// Rows ahead whose cache lines the q / k row loops prefetch: one head's rows sit a whole projection row apart (D to
+// 3 D floats), a stride the hardware prefetchers did not follow, and the norm's first loads missed (fm-paper B32
+// Tm16: the forward row norm 0.80 -> ~0.6 % of the step's perf samples, its backward 0.45 -> 0.34 %).
+constexpr int64_t kQkRowsAhead = 2;
+
+// Prefetches row t + kQkRowsAhead of x (n rows, row stride ldx, d wide), when there is one.
+template <typename T>
+inline void prefetch_row_ahead(const T* x, int64_t ldx, int64_t t, int64_t n, int64_t d) {
+  if (t + kQkRowsAhead >= n) return;
+  const char* row = reinterpret_cast<const char*>(x + (t + kQkRowsAhead) * ldx);
+  for (int64_t l = 0; l < d * int64_t(sizeof(T)); l += 64) __builtin_prefetch(row + l);
+}
+
 // q or k of one head as the attention sees it (attention_heads.h): n rows x (row stride ldx) -> y (n x d), RMS-norm
 // with weight w (rstd written to r when not null) and RoPE when the tables are given, else a copy.
 template <typename T>
@@ -447,6 +460,7 @@ inline void qk_rows_forward(T* y, const T* x, int64_t ldx, int64_t n, int64_t d,
   const int64_t h = d / 2;
   for (int64_t t = 0; t < n; ++t) {
     T* yt = y + t * d;
+    prefetch_row_ahead(x, ldx, t, n, d);
     if (w) {
       const T rt = rms_norm_row_forward(yt, x + t * ldx, w, d, eps);
       if (r) r[t] = rt;
@@ -465,6 +479,7 @@ inline void qk_rows_backward(T* dx, int64_t ldd, T* pw, T* g, const T* x, int64_
   const int64_t h = d / 2;
   for (int64_t t = 0; t < n; ++t) {
     T* gt = g + t * d;
+    if (w) prefetch_row_ahead(x, ldx, t, n, d);
     if (cos_tab) rope_rotate_row(gt, gt, cos_tab + t * h, sin_tab + t * h, h, (T)-1);
     if (w)
       rms_norm_row_backward(dx ? dx + t * ldd : spare, pw, gt, x + t * ldx, w, rstd[t], d);
