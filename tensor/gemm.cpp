@@ -200,6 +200,13 @@ void macro_kernel(const MicroKernel<T>& uk, int64_t mc, int64_t nc, int64_t kc, 
       const int64_t m = std::min<int64_t>(mr, mc - ir);
       const bool rows = ar && m == mr;  // A read in place (uk.kernel_rows); ap then holds only the short panel
       const T* a = rows ? ar + ir * lda : ar ? ap : ap + (ir / mr) * kc * mr;
+      // The tile's K block at k0 into d (row stride ld): from A in place, or from the packed panel by `packed`.
+      auto block = [&](auto packed, int64_t k0, T* d, int64_t ld, T al, T be, const T* bi) {
+        if (rows)
+          uk.kernel_rows(std::min(ks, kc - k0), a + k0, lda, b + k0 * nr, d, ld, al, be, bi);
+        else
+          packed(std::min(ks, kc - k0), a + k0 * mr, b + k0 * nr, d, ld, al, be, bi);
+      };
       T* cc = c + ir * ldc + segment_col(cs, j0 + jr);
       const int s = !one_run || n < nr ? -1 : m == uk.short_m[0] ? 0 : m == uk.short_m[1] ? 1 : -1;
       if (one_run && n == nr && (m == mr || (s >= 0 && uk.short_kernel[s]))) {  // straight into C
@@ -209,22 +216,13 @@ void macro_kernel(const MicroKernel<T>& uk, int64_t mc, int64_t nc, int64_t kc, 
             __builtin_prefetch(cc + i * ldc, 1);
             __builtin_prefetch(cc + i * ldc + nr - 1, 1);
           }
-        for (int64_t k0 = 0; k0 < kc; k0 += ks) {
-          const T b0 = k0 == 0 ? beta : T(1);
-          const T* bias0 = k0 == 0 ? bias_j : nullptr;
-          if (rows)
-            uk.kernel_rows(std::min(ks, kc - k0), a + k0, lda, b + k0 * nr, cc, ldc, alpha, b0, bias0);
-          else
-            kernel(std::min(ks, kc - k0), a + k0 * mr, b + k0 * nr, cc, ldc, alpha, b0, bias0);
-        }
+        for (int64_t k0 = 0; k0 < kc; k0 += ks)
+          block(kernel, k0, cc, ldc, alpha, k0 == 0 ? beta : T(1), k0 == 0 ? bias_j : nullptr);
         relu_rows(cc, m);
         continue;
       }
       for (int64_t k0 = 0; k0 < kc; k0 += ks) {
-        if (rows)
-          uk.kernel_rows(std::min(ks, kc - k0), a + k0, lda, b + k0 * nr, tile, nr, T(1), T(0), nullptr);
-        else
-          uk.kernel(std::min(ks, kc - k0), a + k0 * mr, b + k0 * nr, tile, nr, T(1), T(0), nullptr);
+        block(uk.kernel, k0, tile, nr, T(1), T(0), nullptr);
         const bool last = k0 + ks >= kc;
         for (int64_t i = 0; i < m; ++i)
           for (int64_t j = 0; j < n;) {  // by runs of contiguous columns: one, unless the tile straddles a segment
