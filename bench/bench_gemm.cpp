@@ -17,6 +17,7 @@
 #include <memory>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "bench/lib/gemm_bench.h"
@@ -87,14 +88,10 @@ void bm_wgrad(benchmark::State& state, int64_t out, int64_t in, int64_t rows, bo
   });
 }
 
+// bm_ours on 2 threads with A read as `mode` says.
 void bm_read_a(benchmark::State& state, std::shared_ptr<GemmOperands> ops, const char* mode) {
-  t2m::set_num_threads(2);
   t2m::gemm_force_read_a(mode);
-  timed_loop(state, ops->shape, 2, [&] {
-    ops->run();
-    benchmark::DoNotOptimize(ops->C.data());
-    benchmark::ClobberMemory();
-  });
+  bm_ours(state, std::move(ops), 2);
   t2m::gemm_force_read_a("auto");
 }
 

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "tensor/gemm.h"
+#include "tensor/tensor.h"
 
 // Runs fn once per available kernel (avx512 only where the CPU has it), restoring "auto" afterwards.
 template <typename F>
@@ -57,12 +58,12 @@ inline std::vector<float> run_gemm_case(const GemmCase& c, bool ta, bool tb, int
   }
   std::vector<float> C(size_t(c.M * c.N));
   for (auto& v : C) v = u(rng);
-  if (c.epilogue == 6) {  // C 64-byte aligned, so that it streams where it is at least the L2's size
-    std::vector<float> buf(C.size() + 16);
-    float* c64 = reinterpret_cast<float*>((reinterpret_cast<uintptr_t>(buf.data()) + 63) & ~uintptr_t(63));
-    const bool s = t2m::gemm_stream(ta, tb, c.M, c.N, c.K, 1.0f, A.data(), lda, B.data(), ldb, c64, c.N);
+  if (c.epilogue == 6) {  // C in a Tensor's 64-byte aligned storage, so that it streams where it is at least the L2
+    t2m::Tensor c64 = t2m::Tensor::zeros({c.M, c.N});
+    const bool s =
+        t2m::gemm_stream(ta, tb, c.M, c.N, c.K, 1.0f, A.data(), lda, B.data(), ldb, c64.data<float>(), c.N);
     if (streamed) *streamed = s;
-    std::memcpy(C.data(), c64, C.size() * sizeof(float));
+    std::memcpy(C.data(), c64.data<float>(), C.size() * sizeof(float));
   } else if (c.epilogue == 3) {
     t2m::gemm_bias_relu(ta, tb, c.M, c.N, c.K, 1.0f, A.data(), lda, B.data(), ldb, bias.data(), C.data(), c.N);
   } else if (c.epilogue == 2) {
