@@ -84,10 +84,13 @@ int main(int argc, char** argv) {
     for (int part : {kFb, kActor, kBoth}) {
       const std::string name =
           "fb-w" + std::to_string(w) + " B" + std::to_string(n) + " " + part_name(part);
-      benchmark::RegisterBenchmark(name.c_str(), BM_train_fb, w, n, part)
-          ->Unit(benchmark::kMillisecond)
-          ->UseRealTime()
-          ->MinTime(w >= 1024 ? 3.0 : 1.0);
+      auto* b = benchmark::RegisterBenchmark(name.c_str(), BM_train_fb, w, n, part)
+                    ->Unit(benchmark::kMillisecond)
+                    ->UseRealTime();
+      if (bench::fixed_steps())
+        bench::steps_from_env(b);
+      else
+        b->MinTime(w >= 1024 ? 3.0 : 1.0);
     }
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;

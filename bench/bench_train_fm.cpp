@@ -115,6 +115,7 @@ BENCHMARK_CAPTURE(BM_fm_attention, gemm, "gemm")
     ->UseRealTime();
 
 BENCHMARK_CAPTURE(BM_train_fm, fm_small, std::string("fm-small"))
+    ->Apply(bench::steps_from_env)
     ->ArgNames({"B", "Tm"})
     ->Args({32, 8})
     ->Args({256, 8})
@@ -123,6 +124,7 @@ BENCHMARK_CAPTURE(BM_train_fm, fm_small, std::string("fm-small"))
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 BENCHMARK_CAPTURE(BM_train_fm, fm_paper, std::string("fm-paper"))
+    ->Apply(bench::steps_from_env)
     ->ArgNames({"B", "Tm"})
     ->Args({32, 8})
     ->Args({32, 16})
@@ -130,6 +132,7 @@ BENCHMARK_CAPTURE(BM_train_fm, fm_paper, std::string("fm-paper"))
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 BENCHMARK_CAPTURE(BM_train_fm, fm_paper_kv_form, std::string("fm-paper"), "never")
+    ->Apply(bench::steps_from_env)
     ->ArgNames({"B", "Tm"})
     ->Args({32, 8})
     ->Unit(benchmark::kMillisecond)

@@ -70,6 +70,7 @@ void BM_train_vae(benchmark::State& st) {
 }  // namespace
 
 BENCHMARK(BM_train_vae)
+    ->Apply(bench::steps_from_env)
     ->ArgNames({"B", "T"})
     ->Args({32, 64})
     ->Args({256, 64})

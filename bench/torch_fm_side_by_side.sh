@@ -7,8 +7,12 @@
 # other people's jobs), GFLOP/s (torch_ref's FLOP count), % of 220 GFLOP/s per thread, and the ratios torch/ours
 # (> 1: ours faster); the best (minimum) wall time of each side and their ratio, the figure least disturbed by
 # other VMs (noise only adds time); plus the load average before and after.
+# Both sides time the same way, torch_ref.py's protocol: one model per config, --warmup untimed steps (default 3,
+# torch_ref.py's; PyTorch's first is its FLOP-counting step), then --steps timed steps (default 5): their median
+# and minimum. (Until session 42 ours was the median of 5 separate models' second steps, slower than the steady
+# state by 3-20 % on this VM: bench/RESULTS.md.)
 #
-# Usage: bash bench/torch_fm_side_by_side.sh [--build-dir DIR] [--threads 1,2] [--steps N]
+# Usage: bash bench/torch_fm_side_by_side.sh [--build-dir DIR] [--threads 1,2] [--steps N] [--warmup N]
 #            [--configs small:32x8,small:256x8,small:32x16,small:256x16,paper:32x8,paper:32x16,paper:256x8]
 #   TORCH_REF=path/to/torch_ref.py (default /work/shared/anchor/torch_ref.py)
 #   T2M_OPENBLAS_ROOT=DIR  use OpenBLAS/tcmalloc unpacked under DIR (`apt-get download libopenblas0-openmp
@@ -19,13 +23,15 @@ BUILD_DIR="$REPO/build"
 THREADS="2"
 CONFIGS="small:32x8,small:256x8,small:32x16,small:256x16,paper:32x8,paper:32x16,paper:256x8"
 STEPS=5
+WARMUP=3
 while [ $# -gt 0 ]; do
   case "$1" in
     --build-dir) BUILD_DIR="$2"; shift ;;
     --threads) THREADS="$2"; shift ;;
     --configs) CONFIGS="$2"; shift ;;
     --steps) STEPS="$2"; shift ;;
-    -h|--help) sed -n 2,16p "$0"; exit 0 ;;
+    --warmup) WARMUP="$2"; shift ;;
+    -h|--help) sed -n 2,19p "$0"; exit 0 ;;
     *) echo "torch_fm_side_by_side.sh: unknown option '$1'" >&2; exit 2 ;;
   esac
   shift
@@ -42,7 +48,7 @@ trap 'rm -rf "$TMP"' EXIT
 # PyTorch: torch_ref.py's own fm_case step, timed per step with wall and process CPU clocks.
 cat > "$TMP/torch_fm.py" <<'PY'
 import importlib.util, sys, time
-path, threads, steps, configs = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4].split(",")
+path, threads, steps, configs, warmup = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4].split(","), int(sys.argv[5])
 sys.argv = [path]
 spec = importlib.util.spec_from_file_location("torch_ref", path)
 tr = importlib.util.module_from_spec(spec)
@@ -54,8 +60,9 @@ for c in configs:
     b, tm = map(int, bt.split("x"))
     torch.manual_seed(0)
     model, step = tr.fm_case(size, b, tm)
-    flops = tr.count_step_flops(step)
-    step()
+    flops = tr.count_step_flops(step)  # the first warm-up step
+    for _ in range(warmup - 1):
+        step()
     cpu, wall = [], []
     for _ in range(steps):
         c0, w0 = time.process_time(), time.perf_counter()
@@ -75,11 +82,11 @@ done
 filter="${filter#|}"
 echo "# load average before: $(cut -d' ' -f1-3 /proc/loadavg)"
 for th in ${THREADS//,/ }; do
-  echo "# ours: OMP_NUM_THREADS=$th $BENCH --benchmark_filter='$filter' --benchmark_repetitions=$STEPS"
-  OMP_NUM_THREADS=$th "$BENCH" --benchmark_filter="$filter" --benchmark_min_time=0 \
-    --benchmark_repetitions="$STEPS" --benchmark_format=json > "$TMP/ours_$th.json" 2> /dev/null
+  echo "# ours: OMP_NUM_THREADS=$th T2M_BENCH_WARMUP=$WARMUP T2M_BENCH_STEPS=$STEPS $BENCH --benchmark_filter='$filter'"
+  OMP_NUM_THREADS=$th T2M_BENCH_WARMUP=$WARMUP T2M_BENCH_STEPS=$STEPS "$BENCH" --benchmark_filter="$filter" \
+    --benchmark_format=json > "$TMP/ours_$th.json" 2> /dev/null
   echo "# torch: ${TORCH_ENV[*]} /usr/bin/python3 <torch_ref.fm_case step> threads $th"
-  "${TORCH_ENV[@]}" /usr/bin/python3 "$TMP/torch_fm.py" "$TORCH_REF" "$th" "$STEPS" "$CONFIGS" >> "$TMP/torch.txt"
+  "${TORCH_ENV[@]}" /usr/bin/python3 "$TMP/torch_fm.py" "$TORCH_REF" "$th" "$STEPS" "$CONFIGS" "$WARMUP" >> "$TMP/torch.txt"
 done
 echo "# load average after: $(cut -d' ' -f1-3 /proc/loadavg)"
 /usr/bin/python3 - "$TMP" "$THREADS" <<'PY'
@@ -102,10 +109,11 @@ for th in threads:
         b, tm = int(name.split("B:")[1].split("/")[0]), int(name.split("Tm:")[1].split("/")[0])
         runs.setdefault((size, b, tm), []).append(r)
     for (size, b, tm), rs in runs.items():
-        ms = statistics.median(r["ms"] for r in rs)
-        cpu = statistics.median(r["cpu_ms"] for r in rs)
-        gf = statistics.median(r["GFLOP/s"] for r in rs)
-        best = min(r["ms"] for r in rs)
+        # one run per config: T2M_BENCH_STEPS timed steps of one model after the warm-up (bench/lib/step_timer.h)
+        ms = statistics.median(r["median_ms"] for r in rs)
+        cpu = statistics.median(r["median_cpu_ms"] for r in rs)
+        gf = statistics.median(r["GFLOP/s"] * r["ms"] / r["median_ms"] for r in rs)  # per median step, as torch's
+        best = min(r["min_ms"] for r in rs)
         tw, tc, tg, tb = torch.get((size, b, tm, th), (float("nan"),) * 4)
         print("%-22s %3d | %9.1f %9.1f %8.1f %5.0f%% | %9.1f %9.1f %8.1f | %9.2fx %8.2fx | %9.1f %9.1f %9.2fx" % (
             f"fm-{size} B{b} Tm{tm}", th, ms, cpu, gf, 100 * gf / (220 * th), tw, tc, tg, tw / ms, tc / cpu, best, tb,

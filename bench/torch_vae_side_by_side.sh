@@ -5,9 +5,12 @@
 # tcmalloc), B in {32, 256} x T in {64, 128}. Prints per config: wall ms (median) and process CPU ms per step
 # (median; the robust figure on a shared VM, where wall time mostly measures other people's jobs), GFLOP/s
 # (torch_ref's FLOP count), % of 220 GFLOP/s per thread, and the ratio torch/ours; plus the load average.
+# Both sides time the same way, torch_ref.py's protocol: one model per config, --warmup untimed steps (default 3,
+# torch_ref.py's; PyTorch's first is its FLOP-counting step), then --steps timed steps (default 5): their median.
+# (Until session 42 ours was the median of 5 separate models' second steps: bench/RESULTS.md.)
 #
 # Usage: bash bench/torch_vae_side_by_side.sh [--build-dir DIR] [--threads 1,2] [--configs 32x64,256x64,...]
-#                                             [--steps N] [--official]
+#                                             [--steps N] [--warmup N] [--official]
 #   --official also runs `torch_ref.py --best --suite vae` itself (wall-clock medians exactly as REFERENCE.md).
 #   TORCH_REF=path/to/torch_ref.py (default /work/shared/anchor/torch_ref.py)
 #   T2M_OPENBLAS_ROOT=DIR  use OpenBLAS/tcmalloc unpacked under DIR (`apt-get download libopenblas0-openmp
@@ -18,6 +21,7 @@ BUILD_DIR="$REPO/build"
 THREADS="1,2"
 CONFIGS="32x64,256x64,32x128,256x128"
 STEPS=5
+WARMUP=3
 OFFICIAL=0
 while [ $# -gt 0 ]; do
   case "$1" in
@@ -25,8 +29,9 @@ while [ $# -gt 0 ]; do
     --threads) THREADS="$2"; shift ;;
     --configs) CONFIGS="$2"; shift ;;
     --steps) STEPS="$2"; shift ;;
+    --warmup) WARMUP="$2"; shift ;;
     --official) OFFICIAL=1 ;;
-    -h|--help) sed -n 2,18p "$0"; exit 0 ;;
+    -h|--help) sed -n 2,17p "$0"; exit 0 ;;
     *) echo "torch_vae_side_by_side.sh: unknown option '$1'" >&2; exit 2 ;;
   esac
   shift
@@ -43,7 +48,7 @@ trap 'rm -rf "$TMP"' EXIT
 # PyTorch: torch_ref.py's own vae_case step, timed per step with wall and process CPU clocks.
 cat > "$TMP/torch_vae.py" <<'PY'
 import importlib.util, os, sys, time
-path, threads, steps, configs = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4].split(",")
+path, threads, steps, configs, warmup = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4].split(","), int(sys.argv[5])
 sys.argv = [path]
 spec = importlib.util.spec_from_file_location("torch_ref", path)
 tr = importlib.util.module_from_spec(spec)
@@ -54,8 +59,9 @@ for c in configs:
     b, t = map(int, c.split("x"))
     torch.manual_seed(0)
     model, step = tr.vae_case(b, t)
-    flops = tr.count_step_flops(step)
-    step()
+    flops = tr.count_step_flops(step)  # the first warm-up step
+    for _ in range(warmup - 1):
+        step()
     cpu, wall = [], []
     for _ in range(steps):
         c0, w0 = time.process_time(), time.perf_counter()
@@ -72,11 +78,11 @@ for c in ${CONFIGS//,/ }; do filter="$filter|B:${c%x*}/T:${c#*x}/"; done
 filter="${filter#|}"
 echo "# load average before: $(cut -d' ' -f1-3 /proc/loadavg)"
 for th in ${THREADS//,/ }; do
-  echo "# ours: OMP_NUM_THREADS=$th $BENCH --benchmark_filter='$filter' --benchmark_repetitions=$STEPS"
-  OMP_NUM_THREADS=$th "$BENCH" --benchmark_filter="$filter" --benchmark_min_time=0 \
-    --benchmark_repetitions="$STEPS" --benchmark_format=json > "$TMP/ours_$th.json" 2> /dev/null
+  echo "# ours: OMP_NUM_THREADS=$th T2M_BENCH_WARMUP=$WARMUP T2M_BENCH_STEPS=$STEPS $BENCH --benchmark_filter='$filter'"
+  OMP_NUM_THREADS=$th T2M_BENCH_WARMUP=$WARMUP T2M_BENCH_STEPS=$STEPS "$BENCH" --benchmark_filter="$filter" \
+    --benchmark_format=json > "$TMP/ours_$th.json" 2> /dev/null
   echo "# torch: ${TORCH_ENV[*]} /usr/bin/python3 <torch_ref.vae_case step> threads $th"
-  "${TORCH_ENV[@]}" /usr/bin/python3 "$TMP/torch_vae.py" "$TORCH_REF" "$th" "$STEPS" "$CONFIGS" >> "$TMP/torch.txt"
+  "${TORCH_ENV[@]}" /usr/bin/python3 "$TMP/torch_vae.py" "$TORCH_REF" "$th" "$STEPS" "$CONFIGS" "$WARMUP" >> "$TMP/torch.txt"
 done
 echo "# load average after: $(cut -d' ' -f1-3 /proc/loadavg)"
 /usr/bin/python3 - "$TMP" "$THREADS" <<'PY'
@@ -96,9 +102,10 @@ for th in threads:
         b, t = int(r["name"].split("B:")[1].split("/")[0]), int(r["name"].split("T:")[1].split("/")[0])
         runs.setdefault((b, t), []).append(r)
     for (b, t), rs in runs.items():
-        ms = statistics.median(r["ms"] for r in rs)
-        cpu = statistics.median(r["cpu_ms"] for r in rs)
-        gf = statistics.median(r["GFLOP/s"] for r in rs)
+        # one run per config: T2M_BENCH_STEPS timed steps of one model after the warm-up (bench/lib/step_timer.h)
+        ms = statistics.median(r["median_ms"] for r in rs)
+        cpu = statistics.median(r["median_cpu_ms"] for r in rs)
+        gf = statistics.median(r["GFLOP/s"] * r["ms"] / r["median_ms"] for r in rs)  # per median step, as torch's
         tw, tc, tg = torch.get((b, t, th), (float("nan"),) * 3)
         print("%-16s %3d | %9.1f %9.1f %8.1f %5.0f%% | %9.1f %9.1f %8.1f | %9.2fx %8.2fx" % (
             f"vae B{b} T{t}", th, ms, cpu, gf, 100 * gf / (220 * th), tw, tc, tg, tw / ms, tc / cpu))
