@@ -74,12 +74,8 @@ const MicroKernel<double>& select_kernel<double>() {
 // 1.5-4 % faster (1024x1024x614:nt 299 -> 310 GFLOP/s) and fm-paper B32 Tm8 612-624 -> 602-605 ms, but 32-row
 // products 5-15 % slower (32x256x1536 199-209 -> 172-174); with 1 MB of L2 (the AMD host) it stays at one block.
 std::atomic<int> g_forced_depth{0};
-int64_t l2_bytes() {
-  static const int64_t b = std::max<int64_t>(sysconf(_SC_LEVEL2_CACHE_SIZE), 256 << 10);
-  return b;
-}
 int auto_pack_depth() {
-  static const int d = l2_bytes() >= (2l << 20) ? 2 : 1;
+  static const int d = gemm_l2_bytes() >= (2l << 20) ? 2 : 1;
   return d;
 }
 template <typename T>
@@ -97,7 +93,7 @@ int64_t pack_depth(int64_t M, int64_t MC) {
 template <typename T>
 bool streams_c(const MicroKernel<T>& uk, const GemmArgs<T>& g) {
   return g.stream && uk.kernel_stream && g.beta == T(0) && !g.bias && !g.relu && g.K <= uk.kc && !g.segmented() &&
-         g.M * g.N * int64_t(sizeof(T)) >= l2_bytes() &&
+         g.M * g.N * int64_t(sizeof(T)) >= gemm_l2_bytes() &&
          reinterpret_cast<uintptr_t>(g.C) % gemm_detail::kStreamAlign == 0 &&
          g.ldc * int64_t(sizeof(T)) % gemm_detail::kStreamAlign == 0;
 }
@@ -531,6 +527,11 @@ void gemm_segmented(bool ta, bool tb, int64_t M, int64_t N, int64_t K, double al
                     int64_t ldc, GemmColumns cc) {
   gemm_one(ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, C, ldc, static_cast<const double*>(nullptr), ac, bc, cc,
            "gemm_segmented");
+}
+
+int64_t gemm_l2_bytes() {
+  static const int64_t b = std::max<int64_t>(sysconf(_SC_LEVEL2_CACHE_SIZE), 256 << 10);
+  return b;
 }
 
 int gemm_force_pack_depth(int blocks) {

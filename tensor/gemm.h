@@ -41,6 +41,9 @@ void gemm_bias_relu(bool trans_a, bool trans_b, int64_t M, int64_t N, int64_t K,
 // beta = 0. Returns whether the non-temporal stores were used.
 bool gemm_stream(bool trans_a, bool trans_b, int64_t M, int64_t N, int64_t K, float alpha, const float* A,
                  int64_t lda, const float* B, int64_t ldb, float* C, int64_t ldc);
+// The L2 size the GEMM's choices go by (sysconf, at least 256 KB): the C size from which gemm_stream streams, and
+// (from 2 MB) the two-K-block packing of large float products.
+int64_t gemm_l2_bytes();
 bool gemm_stream(bool trans_a, bool trans_b, int64_t M, int64_t N, int64_t K, double alpha, const double* A,
                  int64_t lda, const double* B, int64_t ldb, double* C, int64_t ldc);
 

@@ -4,7 +4,6 @@
 // one block, a small C, double). All four transposes, both micro-kernels, 1 and 2 threads (both thread splits).
 // C starts as NaN: beta = 0 never reads it.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -25,8 +24,6 @@ using t2m::Tensor;
 
 // Rows of C for a C of at least `bytes` with N columns.
 int64_t rows_for(int64_t bytes, int64_t N) { return (bytes / int64_t(sizeof(float)) + N - 1) / N; }
-
-int64_t l2_bytes() { return std::max<long>(sysconf(_SC_LEVEL2_CACHE_SIZE), 256 << 10); }
 
 struct Case {
   int64_t M, N, K, ldc_pad, c_offset;  // ldc = N + ldc_pad; C starts c_offset floats into an aligned block
@@ -63,7 +60,8 @@ bool check_case(const Case& c, bool ta, bool tb) {
 
 TEST(GemmStream, SameBitsAsGemmStreamedOrNot) {
   const int saved = t2m::get_num_threads();
-  const int64_t big = l2_bytes();
+  const int64_t big = t2m::gemm_l2_bytes();
+  ASSERT_GE(big, 256 << 10);  // sysconf's L2 size, never below the floor
   const std::vector<Case> cases = {
       {rows_for(big, 512), 512, 32, 0, 0, true},          // the adaLN weight gradient's shape (K = the batch)
       {rows_for(big, 520) + 5, 520, 64, 8, 0, true},      // edge tiles (N % 32 = 8), short last row panel
