@@ -9,8 +9,8 @@
 # other VMs (noise only adds time); plus the load average before and after.
 # Both sides time the same way, torch_ref.py's protocol: one model per config, --warmup untimed steps (default 3,
 # torch_ref.py's; PyTorch's first is its FLOP-counting step), then --steps timed steps (default 5): their median
-# and minimum. (Until session 42 ours was the median of 5 separate models' second steps, slower than the steady
-# state by 3-20 % on this VM: bench/RESULTS.md.)
+# and minimum. (Until session 42 ours was the median of 5 separate models' second steps: ~3 % slower than the steady
+# state at fm-paper B32 Tm16 on the Intel VM, single such steps up to 20 %; bench/RESULTS.md.)
 #
 # Usage: bash bench/torch_fm_side_by_side.sh [--build-dir DIR] [--threads 1,2] [--steps N] [--warmup N]
 #            [--configs small:32x8,small:256x8,small:32x16,small:256x16,paper:32x8,paper:32x16,paper:256x8]
@@ -36,6 +36,8 @@ while [ $# -gt 0 ]; do
   esac
   shift
 done
+[[ "$WARMUP" =~ ^[1-9][0-9]*$ && "$STEPS" =~ ^[1-9][0-9]*$ ]] || {
+  echo "$(basename "$0"): --warmup and --steps take positive integers (got '$WARMUP', '$STEPS')" >&2; exit 2; }
 TORCH_REF="${TORCH_REF:-/work/shared/anchor/torch_ref.py}"
 BENCH="$BUILD_DIR/bench_train_fm"
 [ -x "$BENCH" ] || { echo "torch_fm_side_by_side.sh: $BENCH not built (cmake --build $BUILD_DIR --target bench_train_fm)" >&2; exit 1; }
