@@ -47,33 +47,6 @@ torch_best_env torch_vae_side_by_side.sh
 TMP="$(mktemp -d)"
 trap 'rm -rf "$TMP"' EXIT
 
-# PyTorch: torch_ref.py's own vae_case step, timed per step with wall and process CPU clocks.
-cat > "$TMP/torch_vae.py" <<'PY'
-import importlib.util, os, sys, time
-path, threads, steps, configs, warmup = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4].split(","), int(sys.argv[5])
-sys.argv = [path]
-spec = importlib.util.spec_from_file_location("torch_ref", path)
-tr = importlib.util.module_from_spec(spec)
-spec.loader.exec_module(tr)
-import torch
-torch.set_num_threads(threads)
-for c in configs:
-    b, t = map(int, c.split("x"))
-    torch.manual_seed(0)
-    model, step = tr.vae_case(b, t)
-    flops = tr.count_step_flops(step)  # the first warm-up step
-    for _ in range(warmup - 1):
-        step()
-    cpu, wall = [], []
-    for _ in range(steps):
-        c0, w0 = time.process_time(), time.perf_counter()
-        step()
-        cpu.append(time.process_time() - c0)
-        wall.append(time.perf_counter() - w0)
-    cpu.sort(); wall.sort()
-    print("torch", b, t, threads, "%.2f" % (1e3 * wall[len(wall) // 2]), "%.2f" % (1e3 * cpu[len(cpu) // 2]),
-          "%.1f" % (flops / wall[len(wall) // 2] * 1e-9), flush=True)
-PY
 
 filter=""
 for c in ${CONFIGS//,/ }; do filter="$filter|B:${c%x*}/T:${c#*x}/"; done
@@ -83,8 +56,9 @@ for th in ${THREADS//,/ }; do
   echo "# ours: OMP_NUM_THREADS=$th T2M_BENCH_WARMUP=$WARMUP T2M_BENCH_STEPS=$STEPS $BENCH --benchmark_filter='$filter'"
   OMP_NUM_THREADS=$th T2M_BENCH_WARMUP=$WARMUP T2M_BENCH_STEPS=$STEPS "$BENCH" --benchmark_filter="$filter" \
     --benchmark_format=json > "$TMP/ours_$th.json" 2> /dev/null
-  echo "# torch: ${TORCH_ENV[*]} /usr/bin/python3 <torch_ref.vae_case step> threads $th"
-  "${TORCH_ENV[@]}" /usr/bin/python3 "$TMP/torch_vae.py" "$TORCH_REF" "$th" "$STEPS" "$CONFIGS" "$WARMUP" >> "$TMP/torch.txt"
+  echo "# torch: ${TORCH_ENV[*]} /usr/bin/python3 bench/torch_steps.py <torch_ref> $th $STEPS $WARMUP vae ..."
+  "${TORCH_ENV[@]}" /usr/bin/python3 "$REPO/bench/torch_steps.py" "$TORCH_REF" "$th" "$STEPS" "$WARMUP" vae "$CONFIGS" \
+    >> "$TMP/torch.txt"
 done
 echo "# load average after: $(cut -d' ' -f1-3 /proc/loadavg)"
 /usr/bin/python3 - "$TMP" "$THREADS" <<'PY'
@@ -92,7 +66,7 @@ import json, statistics, sys
 tmp, threads = sys.argv[1], [int(t) for t in sys.argv[2].split(",")]
 torch = {}
 for line in open(f"{tmp}/torch.txt"):
-    _, b, t, th, wall, cpu, gf = line.split()
+    _, b, t, th, wall, cpu, gf, _best = line.split()
     torch[(int(b), int(t), int(th))] = (float(wall), float(cpu), float(gf))
 print("%-16s %3s | %9s %9s %8s %6s | %9s %9s %8s | %10s %9s" % ("config", "thr", "ours ms", "ours cpu", "GFLOP/s",
       "%peak", "torch ms", "torch cpu", "GFLOP/s", "ratio wall", "ratio cpu"))
