@@ -3,7 +3,8 @@
 # run as "${TORCH_ENV[@]}" python3 ...; ANCHOR_REEXEC=1 keeps torch_ref.py from re-executing itself.
 # OpenBLAS/tcmalloc come from the system (libopenblas0-openmp, libtcmalloc-minimal4) or, when they are not
 # installed, from T2M_OPENBLAS_ROOT (`apt-get download libopenblas0-openmp libtcmalloc-minimal4; dpkg -x <deb> DIR`).
-# Usage: source bench/torch_env.sh; torch_best_env SCRIPT_NAME   (prints an error and exits 1 when missing)
+# Usage: source bench/torch_env.sh; torch_best_env SCRIPT_NAME   (prints an error and exits 1 when missing);
+# then time_both_sides (below) for the fm / vae scripts.
 torch_best_env() {
   local lib=/usr/lib/x86_64-linux-gnu root=""
   if [ -d "$lib/openblas-openmp" ] && [ -f "$lib/libtcmalloc_minimal.so.4" ]; then
@@ -16,4 +17,24 @@ torch_best_env() {
   fi
   TORCH_ENV=(env ANCHOR_REEXEC=1 LD_LIBRARY_PATH="$root$lib/openblas-openmp" OPENBLAS_CORETYPE=SkylakeX
              LD_PRELOAD="$root$lib/libtcmalloc_minimal.so.4")
+}
+
+# Times both sides of the fm or vae side by side with torch_ref.py's protocol, for each thread count: ours
+# (BENCH, the configs picked by FILTER; bench/lib/step_timer.h's T2M_BENCH_WARMUP / T2M_BENCH_STEPS) into
+# OUT/ours_<threads>.json, PyTorch (bench/torch_steps.py KIND CONFIGS, after torch_best_env) appended to OUT/torch.txt.
+# Usage: time_both_sides KIND BENCH FILTER CONFIGS THREADS(1,2) STEPS WARMUP TORCH_REF OUT
+time_both_sides() {
+  local kind="$1" bench="$2" filter="$3" configs="$4" threads="$5" steps="$6" warmup="$7" torch_ref="$8" out="$9"
+  local steps_py th
+  steps_py="$(dirname "${BASH_SOURCE[0]}")/torch_steps.py"
+  echo "# load average before: $(cut -d' ' -f1-3 /proc/loadavg)"
+  for th in ${threads//,/ }; do
+    echo "# ours: OMP_NUM_THREADS=$th T2M_BENCH_WARMUP=$warmup T2M_BENCH_STEPS=$steps $bench --benchmark_filter='$filter'"
+    OMP_NUM_THREADS=$th T2M_BENCH_WARMUP=$warmup T2M_BENCH_STEPS=$steps "$bench" --benchmark_filter="$filter" \
+      --benchmark_format=json > "$out/ours_$th.json" 2> /dev/null
+    echo "# torch: ${TORCH_ENV[*]} /usr/bin/python3 bench/torch_steps.py <torch_ref> $th $steps $warmup $kind ..."
+    "${TORCH_ENV[@]}" /usr/bin/python3 "$steps_py" "$torch_ref" "$th" "$steps" "$warmup" "$kind" "$configs" \
+      >> "$out/torch.txt"
+  done
+  echo "# load average after: $(cut -d' ' -f1-3 /proc/loadavg)"
 }

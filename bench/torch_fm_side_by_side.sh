@@ -54,16 +54,7 @@ for c in ${CONFIGS//,/ }; do
   filter="$filter|fm_$s/B:${bt%x*}/Tm:${bt#*x}/"
 done
 filter="${filter#|}"
-echo "# load average before: $(cut -d' ' -f1-3 /proc/loadavg)"
-for th in ${THREADS//,/ }; do
-  echo "# ours: OMP_NUM_THREADS=$th T2M_BENCH_WARMUP=$WARMUP T2M_BENCH_STEPS=$STEPS $BENCH --benchmark_filter='$filter'"
-  OMP_NUM_THREADS=$th T2M_BENCH_WARMUP=$WARMUP T2M_BENCH_STEPS=$STEPS "$BENCH" --benchmark_filter="$filter" \
-    --benchmark_format=json > "$TMP/ours_$th.json" 2> /dev/null
-  echo "# torch: ${TORCH_ENV[*]} /usr/bin/python3 bench/torch_steps.py <torch_ref> $th $STEPS $WARMUP fm ..."
-  "${TORCH_ENV[@]}" /usr/bin/python3 "$REPO/bench/torch_steps.py" "$TORCH_REF" "$th" "$STEPS" "$WARMUP" fm "$CONFIGS" \
-    >> "$TMP/torch.txt"
-done
-echo "# load average after: $(cut -d' ' -f1-3 /proc/loadavg)"
+time_both_sides fm "$BENCH" "$filter" "$CONFIGS" "$THREADS" "$STEPS" "$WARMUP" "$TORCH_REF" "$TMP"
 /usr/bin/python3 - "$TMP" "$THREADS" <<'PY'
 import json, statistics, sys
 tmp, threads = sys.argv[1], [int(t) for t in sys.argv[2].split(",")]
