@@ -9,24 +9,33 @@ PyTorch within a minute or two; the median over rounds is the figure the issue t
 
 Usage: /usr/bin/python3 bench/side_by_side_rounds.py --rounds 5 -- bash bench/torch_fb_side_by_side.sh --threads 2
        (everything after -- is the round's command; T2M_OPENBLAS_ROOT and the like pass through the environment)
-Prints each round's table as it comes, then the summary; exits non-zero if a round fails.
+Prints each round's table as it comes, then the summary (with the fm table's FLOP bound: the ratio at which the
+step's FLOPs alone, at this host's FMA peak, would run; a target above it cannot be met here); exits non-zero if a
+round fails.
 """
 import argparse, statistics, subprocess, sys, time
 
 
 def parse_row(line):
-    """(config, threads, ours_ms, torch_ms, ratio) of one table row, or None for any other line."""
+    """(config, threads, ours_ms, torch_ms, ratio, bound) of one table row (bound: the fm table's FLOP bound, else
+    None), or None for any other line."""
     tok = line.split()
     if len(tok) < 5 or not tok[0].startswith(("fm-", "vae", "fb-")) or not tok[3].isdigit():
         return None
     config, threads = " ".join(tok[:3]), int(tok[3])
+    bound = None
     if "|" in line:  # fm / vae layout: config thr | ours ms ... | torch ms ... | ratio wall ratio cpu | ...
         parts = line.split("|")
         ours, torch, ratio = parts[1].split()[0], parts[2].split()[0], parts[3].split()[0]
+        if len(parts) > 5:  # fm: ... | peak GF bound
+            try:
+                bound = float(parts[5].split()[1].rstrip("x"))
+            except (IndexError, ValueError):
+                bound = None
     else:  # fb layout: config thr ours_ms ours_cpu GF/s %peak torch_ms torch_cpu speed-up
         ours, torch, ratio = tok[4], tok[8], tok[10]
     try:
-        return config, threads, float(ours), float(torch), float(ratio.rstrip("x"))
+        return config, threads, float(ours), float(torch), float(ratio.rstrip("x")), bound
     except ValueError:  # a side that did not run prints nan or "-"
         return None
 
@@ -54,13 +63,15 @@ def main():
     if not rows:
         sys.exit("side_by_side_rounds.py: no table rows found in the command's output")
     print(f"\n# summary over {a.rounds} rounds: wall ms per step, ratio = torch / ours (> 1: ours faster)")
-    print("%-22s %3s | %-28s | %-28s | %-30s | %6s %6s %6s" % ("config", "thr", "ours ms per round",
-          "torch ms per round", "ratio per round", "median", "min", "max"))
+    print("%-22s %3s | %-28s | %-28s | %-30s | %6s %6s %6s | %s" % ("config", "thr", "ours ms per round",
+          "torch ms per round", "ratio per round", "median", "min", "max", "FLOP bound (median)"))
     for (config, th), v in rows.items():
         ratios = [x[2] for x in v]
-        print("%-22s %3d | %-28s | %-28s | %-30s | %5.2fx %5.2fx %5.2fx" % (
+        bounds = [x[3] for x in v if x[3] is not None and x[3] == x[3]]
+        print("%-22s %3d | %-28s | %-28s | %-30s | %5.2fx %5.2fx %5.2fx | %s" % (
             config, th, " / ".join("%.1f" % x[0] for x in v), " / ".join("%.1f" % x[1] for x in v),
-            " / ".join("%.2f" % x for x in ratios), statistics.median(ratios), min(ratios), max(ratios)))
+            " / ".join("%.2f" % x for x in ratios), statistics.median(ratios), min(ratios), max(ratios),
+            "%.2fx" % statistics.median(bounds) if bounds else "-"))
 
 
 if __name__ == "__main__":

@@ -1,6 +1,7 @@
 // cmd_bench.cpp — `t2m bench`: times our float GEMM on the micro-suite shapes and prints a table
 // (shape, threads, median ms, GFLOP/s, % of FMA peak, best-rep GFLOP/s, CPU-time GFLOP/s, kernel), optionally with
-// Eigen side by side. See bench/lib/gemm_bench.h for what each column means.
+// Eigen side by side. See bench/lib/gemm_bench.h for what each column means. --peak instead measures this machine's
+// FMA peak per thread count (bench/lib/fma_peak.h), one line each, for the side-by-side scripts.
 // Only built with the benchmark library (T2M_HAVE_BENCH, i.e. -DT2M_BUILD_BENCH=ON).
 #ifdef T2M_HAVE_BENCH
 #include <cstdio>
@@ -9,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/lib/fma_peak.h"
 #include "bench/lib/gemm_bench.h"
 #include "tensor/gemm.h"
 #include "tensor/parallel.h"
@@ -25,6 +27,7 @@ struct BenchOptions {
   int reps = 10;
   int warmup = 2;
   bool eigen = false;
+  bool peak = false;
 };
 
 std::vector<int> parse_threads(const std::string& s) {
@@ -55,6 +58,10 @@ void run_bench(const BenchOptions& o) {
   if (o.warmup < 0) throw t2m::Error("bench: --warmup must be >= 0, got " + std::to_string(o.warmup));
   t2m::gemm_force_kernel(o.kernel.c_str());
   t2m::gemm_force_pack_depth(o.pack_depth);
+  if (o.peak) {  // "fma_peak threads N gflops X" lines
+    for (int t : threads) std::printf("fma_peak threads %d gflops %.1f\n", t, fma_peak_gflops(t));
+    return;
+  }
   const int saved = t2m::get_num_threads();
   std::printf("# t2m bench: float GEMM, median of %d reps after %d warm-up; peak = %.0f GFLOP/s per thread\n", o.reps,
               o.warmup, kPeakGflopsPerCore);
@@ -95,6 +102,7 @@ void add_bench(CLI::App& app) {
   c->add_option("--pack-depth", opts->pack_depth, "K blocks packed at once (0: by the L2 size; 1-8)")
       ->capture_default_str();
   c->add_flag("--eigen", opts->eigen, "also time Eigen on the same shapes");
+  c->add_flag("--peak", opts->peak, "instead measure this machine's FP32 FMA peak (GFLOP/s) per thread count");
   c->callback([opts] { run_bench(*opts); });
 }
 
