@@ -32,7 +32,8 @@ def parse_row(line):
                 bound = float(parts[5].split()[1].rstrip("x"))
             except (IndexError, ValueError):
                 bound = None
-    else:  # fb layout: config thr ours_ms ours_cpu GF/s %peak torch_ms torch_cpu speed-up
+    else:  # fb layout: config thr ours_ms ours_cpu GF/s %peak torch_ms torch_cpu speed-up (no FLOP bound: the
+        # anchor counts every forward FLOP x3 under grad, also for the critic parts that get no weight gradient)
         ours, torch, ratio = tok[4], tok[8], tok[10]
     try:
         return config, threads, float(ours), float(torch), float(ratio.rstrip("x")), bound
