@@ -8,8 +8,8 @@ namespace t2m::bench {
 
 // GFLOP/s of `threads` threads each running independent fused multiply-adds on the widest vectors the GEMM uses
 // (AVX-512 where the CPU has it, else AVX2): 12 accumulator chains per thread (more than latency x ports on the
-// hosts seen), the best of `tries` runs of 3 GFLOP per thread. A ceiling no real kernel reaches (our GEMM's micro-kernel on
-// hot panels: 92-100 %).
+// hosts seen), the best of `tries` runs of 3 GFLOP per thread. A ceiling no real kernel reaches (our GEMM's
+// micro-kernel on hot panels: 92-100 %).
 double fma_peak_gflops(int threads, int tries = 3);
 
 }  // namespace t2m::bench
