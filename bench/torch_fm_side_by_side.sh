@@ -58,7 +58,11 @@ for c in ${CONFIGS//,/ }; do
 done
 filter="${filter#|}"
 # This host's FMA peak per thread count ("fma_peak threads N gflops X"); none (those columns nan) without build/t2m.
-if [ -x "$BUILD_DIR/t2m" ]; then "$BUILD_DIR/t2m" bench --peak --threads "$THREADS" | tee "$TMP/peak.txt"; else : > "$TMP/peak.txt"; fi
+if [ -x "$BUILD_DIR/t2m" ]; then
+  "$BUILD_DIR/t2m" bench --peak --threads "$THREADS" | tee "$TMP/peak.txt"
+else
+  : > "$TMP/peak.txt"
+fi
 time_both_sides fm "$BENCH" "$filter" "$CONFIGS" "$THREADS" "$STEPS" "$WARMUP" "$TORCH_REF" "$TMP"
 /usr/bin/python3 - "$TMP" "$THREADS" <<'PY'
 import json, statistics, sys
@@ -89,7 +93,8 @@ for th in threads:
         tw, tc, tg, tb = torch.get((size, b, tm, th), (float("nan"),) * 4)
         pk = peak.get(th, float("nan"))
         # bound: torch's median over the time the step's FLOPs (gf * ms, in MFLOP) take at the peak
-        print("%-22s %3d | %9.1f %9.1f %8.1f %5.0f%% | %9.1f %9.1f %8.1f | %9.2fx %8.2fx | %9.1f %9.1f %9.2fx | %8.1f %6.2fx" % (
+        print(("%-22s %3d | %9.1f %9.1f %8.1f %5.0f%% | %9.1f %9.1f %8.1f | %9.2fx %8.2fx | %9.1f %9.1f %9.2fx"
+               " | %8.1f %6.2fx") % (
             f"fm-{size} B{b} Tm{tm}", th, ms, cpu, gf, 100 * gf / pk, tw, tc, tg, tw / ms, tc / cpu, best, tb,
             tb / best, pk, tw * pk / (gf * ms)))
 PY
