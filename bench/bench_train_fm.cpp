@@ -6,7 +6,7 @@
 // Configs: fm-small B{32, 256} x Tm{8, 16}; fm-paper B32 Tm8, B32 Tm16, B256 Tm8.
 // Counters: ms (wall clock per step), cpu_ms (process CPU time per step over all threads: less sensitive to other
 // processes holding a core), GFLOP/s (Linear + attention-matmul FLOPs counted as torch_ref counts them: 3 x the
-// forward FLOPs, so the rates compare directly), %peak (GFLOP/s against 220 GFLOP/s per thread).
+// forward FLOPs, so the rates compare directly), %peak (GFLOP/s against the measured peak_GFLOP/s).
 // fm_paper_kv_form: fm-paper B32 Tm8 with every cross-attention in the K/V-projection form (mha_cross), against
 // fm_paper's value projection after the weighted sum (autograd/ops_mha_ctx.h).
 // Also BM_fm_attention: the attention core alone (fwd + bwd) at the generator's head shapes on each path.

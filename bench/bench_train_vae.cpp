@@ -4,7 +4,7 @@
 // 3 levels, depth 3, 6.83M parameters) for B in {32, 256} x T in {64, 128}.
 // Counters: ms (wall clock per step), GFLOP/s (conv FLOPs counted as torch_ref counts them: 3 x the forward conv
 // FLOPs per step, so the rates compare directly), cpu_ms (process CPU time per step over all threads: less
-// sensitive to other processes holding a core), %peak (GFLOP/s against 220 GFLOP/s per thread).
+// sensitive to other processes holding a core), %peak (GFLOP/s against the measured peak_GFLOP/s).
 // Run: build-NAME/bench_train_vae --benchmark_min_time=2   (threads: OMP_NUM_THREADS, default 2 on this VM).
 #include <benchmark/benchmark.h>
 

@@ -3,7 +3,7 @@
 # (bench_train_fb) and PyTorch's (../shared/anchor/torch_ref.py --suite fb, --best = OpenBLAS SkylakeX +
 # tcmalloc) in the same session, same configs (fb-w256 B256 and fb-w1024 B1024, parts fb / actor / both), same
 # thread count; prints ms per step (wall, the median step on both sides), our process CPU ms, GFLOP/s with the
-# anchor's FLOP count, % of the 220 GFLOP/s/core peak, and the speed-up torch_ms / ours_ms. The machine load
+# anchor's FLOP count, % of this host's measured per-core FMA peak, and the speed-up torch_ms / ours_ms. The machine load
 # (uptime) is printed before and after: with other jobs running, wall times are inflated for both.
 #
 # --mode cpu: instead of torch_ref.py's wall-clock loop, time torch's fb_case with bench/torch_fb_cputime.py by
@@ -87,6 +87,6 @@ for name, b in ours.items():
     theirs = t.get(key, float("nan"))
     cell = lambda v: f"{v:9.1f}" if v is not None else f"{'-':>9s}"  # torch's CPU time: --mode cpu only
     print(f"{name:22s} {int(b['threads']):3d} {wall:9.1f} {b['cpu_ms']:9.1f} {gf_cpu:9.1f} "
-          f"{100 * gf_cpu / 220:6.1f} {cell(t.get('ms'))} {cell(t.get('cpu'))} "
+          f"{100 * gf_cpu / (b['peak_GFLOP/s'] / b['threads']):6.1f} {cell(t.get('ms'))} {cell(t.get('cpu'))} "
           f"{theirs / mine:7.2f}x")
 PY

@@ -4,12 +4,12 @@
 # ours (bench_train_fm) and PyTorch (torch_ref.py's own fm_case step, --best environment: OpenBLAS SkylakeX +
 # tcmalloc). Configs fm-small B{32,256} x Tm{8,16}, fm-paper B32 Tm8, B32 Tm16, B256 Tm8. Prints per config: wall
 # ms (median) and process CPU ms per step (median; the robust figure on a shared VM, where wall time mostly measures
-# other people's jobs), GFLOP/s (torch_ref's FLOP count), % of this host's FMA peak (measured first: `t2m bench
-# --peak`), and the ratios torch/ours (> 1: ours faster); the best (minimum) wall time of each side and their ratio,
-# the figure least disturbed by other VMs (noise only adds time); then the host's peak and the step's FLOP bound:
-# torch's time over the time the step's FLOPs alone take at that peak, i.e. the ratio ours would read if every
-# FLOP ran at the peak and nothing else took time (a target above it cannot be met on this host with these FLOPs);
-# plus the load average before and after.
+# other people's jobs), GFLOP/s (torch_ref's FLOP count), % of this host's FMA peak (the benchmark's peak_GFLOP/s
+# counter, measured: bench/lib/fma_peak.h), and the ratios torch/ours (> 1: ours faster); the best (minimum) wall
+# time of each side and their ratio, the figure least disturbed by other VMs (noise only adds time); then the
+# host's peak and the step's FLOP bound: torch's time over the time the step's FLOPs alone take at that peak, i.e.
+# the ratio ours would read if every FLOP ran at the peak and nothing else took time (a target above it cannot be
+# met on this host with these FLOPs); plus the load average before and after.
 # Both sides time the same way, torch_ref.py's protocol: one model per config, --warmup untimed steps (default 3,
 # torch_ref.py's; PyTorch's first is its FLOP-counting step), then --steps timed steps (default 5): their median
 # and minimum. (Until session 42 ours was the median of 5 separate models' second steps: ~3 % slower than the steady
@@ -57,17 +57,10 @@ for c in ${CONFIGS//,/ }; do
   filter="$filter|fm_$s/B:${bt%x*}/Tm:${bt#*x}/"
 done
 filter="${filter#|}"
-# This host's FMA peak per thread count ("fma_peak threads N gflops X"); none (those columns nan) without build/t2m.
-if [ -x "$BUILD_DIR/t2m" ]; then
-  "$BUILD_DIR/t2m" bench --peak --threads "$THREADS" | tee "$TMP/peak.txt"
-else
-  : > "$TMP/peak.txt"
-fi
 time_both_sides fm "$BENCH" "$filter" "$CONFIGS" "$THREADS" "$STEPS" "$WARMUP" "$TORCH_REF" "$TMP"
 /usr/bin/python3 - "$TMP" "$THREADS" <<'PY'
 import json, statistics, sys
 tmp, threads = sys.argv[1], [int(t) for t in sys.argv[2].split(",")]
-peak = {int(l.split()[2]): float(l.split()[4]) for l in open(f"{tmp}/peak.txt") if l.startswith("fma_peak")}
 torch = {}
 for line in open(f"{tmp}/torch.txt"):
     _, size, b, tm, th, wall, cpu, gf, best = line.split()
@@ -91,7 +84,7 @@ for th in threads:
         gf = statistics.median(r["GFLOP/s"] * r["ms"] / r["median_ms"] for r in rs)  # per median step, as torch's
         best = min(r["min_ms"] for r in rs)
         tw, tc, tg, tb = torch.get((size, b, tm, th), (float("nan"),) * 4)
-        pk = peak.get(th, float("nan"))
+        pk = statistics.median(r["peak_GFLOP/s"] for r in rs)  # this host's FMA peak, th threads
         # bound: torch's median over the time the step's FLOPs (gf * ms, in MFLOP) take at the peak
         print(("%-22s %3d | %9.1f %9.1f %8.1f %5.0f%% | %9.1f %9.1f %8.1f | %9.2fx %8.2fx | %9.1f %9.1f %9.2fx"
                " | %8.1f %6.2fx") % (

@@ -4,7 +4,7 @@
 # (bench_train_vae) and PyTorch (torch_ref.py's own vae_case step, --best environment: OpenBLAS SkylakeX +
 # tcmalloc), B in {32, 256} x T in {64, 128}. Prints per config: wall ms (median) and process CPU ms per step
 # (median; the robust figure on a shared VM, where wall time mostly measures other people's jobs), GFLOP/s
-# (torch_ref's FLOP count), % of 220 GFLOP/s per thread, and the ratio torch/ours; plus the load average.
+# (torch_ref's FLOP count), % of this host's measured FMA peak (peak_GFLOP/s), and the ratio torch/ours; plus the load average.
 # Both sides time the same way, torch_ref.py's protocol: one model per config, --warmup untimed steps (default 3,
 # torch_ref.py's; PyTorch's first is its FLOP-counting step), then --steps timed steps (default 5): their median.
 # (Until session 42 ours was the median of 5 separate models' second steps: bench/RESULTS.md.)
@@ -74,8 +74,9 @@ for th in threads:
         cpu = statistics.median(r["median_cpu_ms"] for r in rs)
         gf = statistics.median(r["GFLOP/s"] * r["ms"] / r["median_ms"] for r in rs)  # per median step, as torch's
         tw, tc, tg = torch.get((b, t, th), (float("nan"),) * 3)
+        pk = statistics.median(r["peak_GFLOP/s"] for r in rs)
         print("%-16s %3d | %9.1f %9.1f %8.1f %5.0f%% | %9.1f %9.1f %8.1f | %9.2fx %8.2fx" % (
-            f"vae B{b} T{t}", th, ms, cpu, gf, 100 * gf / (220 * th), tw, tc, tg, tw / ms, tc / cpu))
+            f"vae B{b} T{t}", th, ms, cpu, gf, 100 * gf / pk, tw, tc, tg, tw / ms, tc / cpu))
 PY
 if [ "$OFFICIAL" = 1 ]; then
   echo "# official: torch_ref.py --best --suite vae --threads $THREADS"

@@ -1,5 +1,6 @@
 // gemm_bench.cpp — shapes, operands and the timing loop behind `t2m bench` and bench_gemm.
 #include "bench/lib/gemm_bench.h"
+#include "bench/lib/fma_peak.h"
 #include "bench/lib/step_timer.h"
 
 #include <Eigen/Dense>
@@ -14,6 +15,11 @@
 #include "tensor/tensor.h"
 
 namespace t2m::bench {
+
+double peak_gflops_per_core() {
+  static const double peak = fma_peak_gflops(1);
+  return peak;
+}
 
 namespace {
 
@@ -125,7 +131,7 @@ GemmTiming time_loop(const GemmShape& s, int threads, int reps, int warmup, F&& 
   t.median_ms = n % 2 ? ms[n / 2] : 0.5 * (ms[n / 2 - 1] + ms[n / 2]);
   t.best_ms = ms.front();
   t.gflops = s.flops() / (t.median_ms * 1e6);
-  t.pct_peak = 100.0 * t.gflops / (kPeakGflopsPerCore * threads);
+  t.pct_peak = 100.0 * t.gflops / (peak_gflops_per_core() * threads);
   t.cpu_gflops = best_cpu_s > 0 ? s.flops() / best_cpu_s * 1e-9 * threads : 0.0;
   return t;
 }

@@ -2,7 +2,7 @@
 //
 // Shapes are M×N×K (C is M×N, the reduction is K) with a transpose variant: "nn" is C = A B (forward),
 // "tn" is C = A^T B (weight gradient), "nt" is C = A B^T (input gradient). The micro suite is the sgemm list of
-// /work/shared/anchor/REFERENCE.md. FLOPs = 2·M·N·K; % of peak is against kPeakGflopsPerCore × threads.
+// /work/shared/anchor/REFERENCE.md. FLOPs = 2·M·N·K; % of peak is against peak_gflops_per_core() × threads.
 #pragma once
 #include <cstdint>
 #include <string>
@@ -10,8 +10,10 @@
 
 namespace t2m::bench {
 
-// Measured FP32 FMA peak of one Zen5 core here: 64 flop/cycle at ~3.4 GHz (REFERENCE.md).
-constexpr double kPeakGflopsPerCore = 220.0;
+// This machine's FP32 FMA peak on one core, measured once per process (fma_peak_gflops(1), bench/lib/fma_peak.h;
+// ~80 ms on the first call): every % of peak of the benchmarks is against it x threads. (Until session 43 a fixed
+// 220, the Zen 5 host's figure: ~114.6 on the Zen 4 VMs, ~176 on the Intel ones.)
+double peak_gflops_per_core();
 
 struct GemmShape {
   int64_t M = 0, N = 0, K = 0;
@@ -40,7 +42,7 @@ void set_eigen_threads(int n);
 struct GemmTiming {
   double median_ms = 0, best_ms = 0;
   double gflops = 0;    // at the median
-  double pct_peak = 0;  // gflops / (kPeakGflopsPerCore * threads)
+  double pct_peak = 0;  // gflops / (peak_gflops_per_core() * threads)
   // flops / (process CPU seconds of the fastest rep) × threads: the speed while actually on a core. On a quiet
   // machine it equals the wall-clock figure; on a shared, oversubscribed one it filters out time spent
   // descheduled. Meaningful for 1 thread only (with more, a descheduled worker's time is simply missing).
