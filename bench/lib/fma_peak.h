@@ -1,7 +1,7 @@
-// fma_peak.h — this machine's float32 FMA peak, measured: the %peak columns elsewhere divide by a fixed 220 GFLOP/s
-// per thread (the AMD Zen 5 host of the early sessions), while the VMs seen since range from ~114 (Zen 4) to ~176
-// (Intel) per core. The side-by-side scripts use the measured figure for % of this host's peak and for the FLOP
-// bound of a step (how fast it could be if all its FLOPs ran at that peak).
+// fma_peak.h — this machine's float32 FMA peak, measured: the VMs seen so far range from ~114 (Zen 4) and ~176
+// (Intel) to ~220 (Zen 5) GFLOP/s per core, so every % of peak in bench/ is against this figure
+// (bench::peak_gflops_per_core()), and the fm side by side bounds each step's ratio by it (how fast the step could
+// be if all its FLOPs ran at the peak).
 #pragma once
 
 namespace t2m::bench {
