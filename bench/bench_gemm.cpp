@@ -1,7 +1,8 @@
 // bench_gemm.cpp — Google Benchmark: our float GEMM vs Eigen on the micro-suite shapes of
 // /work/shared/anchor/REFERENCE.md (256³, 1024³, 1000³, 4096×512×512, 4096×2048×512; M×N×K), each as the forward
 // product A·B ("nn") and the two backward products A^T·B ("tn") and A·B^T ("nt"), on 1 and 2 threads.
-// Counters: GFLOP/s and % of this machine's measured FMA peak (bench::peak_gflops_per_core() per thread). Wall-clock time per call (manual timing; the work is multi-threaded).
+// Counters: GFLOP/s and % of this machine's measured FMA peak (bench::peak_gflops_per_core() per thread).
+// Wall-clock time per call (manual timing; the work is multi-threaded).
 // gemm/wgrad/{plain,stream}: weight-gradient products of fm-paper B32 (dW = dY^T X, out x in from K rows) written
 // by gemm (beta 0) or gemm_stream, C rotating over 16 matrices as a training step's gradients do (each written once).
 // gemm/read_a/{packed,in_place}: fm-paper's forward (nt) and input-gradient (nn) products and 1024^3 on 2 threads

@@ -6,7 +6,8 @@
 // "both" (one full update()).
 // Counters: ms (wall clock per step), cpu_ms (process CPU time per step, all threads: less sensitive to other
 // load on the machine), GFLOP/s with the anchor's FLOP count (Linear and bmm FLOPs, x3 under grad), %peak
-// against this machine's measured FMA peak x threads (bench::peak_gflops_per_core()). Threads: OMP_NUM_THREADS / t2m::get_num_threads().
+// against this machine's measured FMA peak x threads (bench::peak_gflops_per_core()). Threads: OMP_NUM_THREADS /
+// t2m::get_num_threads().
 // Usage: build-X/bench_train_fb [--benchmark_filter=w256] [--benchmark_format=json]
 #include <benchmark/benchmark.h>
 

@@ -3,8 +3,8 @@
 # (bench_train_fb) and PyTorch's (../shared/anchor/torch_ref.py --suite fb, --best = OpenBLAS SkylakeX +
 # tcmalloc) in the same session, same configs (fb-w256 B256 and fb-w1024 B1024, parts fb / actor / both), same
 # thread count; prints ms per step (wall, the median step on both sides), our process CPU ms, GFLOP/s with the
-# anchor's FLOP count, % of this host's measured per-core FMA peak, and the speed-up torch_ms / ours_ms. The machine load
-# (uptime) is printed before and after: with other jobs running, wall times are inflated for both.
+# anchor's FLOP count, % of this host's measured per-core FMA peak, and the speed-up torch_ms / ours_ms. The
+# machine load (uptime) is printed before and after: with other jobs running, wall times are inflated for both.
 #
 # --mode cpu: instead of torch_ref.py's wall-clock loop, time torch's fb_case with bench/torch_fb_cputime.py by
 # process CPU time per step (median) and compare it with our cpu_ms (mean): the fairer number on a loaded machine.
@@ -26,7 +26,7 @@ while [ $# -gt 0 ]; do
     --threads) THREADS="$2"; shift ;;
     --only) ONLY="$2"; shift ;;
     --mode) MODE="$2"; shift ;;
-    -h|--help) sed -n 2,18p "$0"; exit 0 ;;
+    -h|--help) sed -n 2,16p "$0"; exit 0 ;;
     *) echo "torch_fb_side_by_side.sh: unknown option '$1'" >&2; exit 2 ;;
   esac
   shift

@@ -4,7 +4,8 @@
 # (bench_train_vae) and PyTorch (torch_ref.py's own vae_case step, --best environment: OpenBLAS SkylakeX +
 # tcmalloc), B in {32, 256} x T in {64, 128}. Prints per config: wall ms (median) and process CPU ms per step
 # (median; the robust figure on a shared VM, where wall time mostly measures other people's jobs), GFLOP/s
-# (torch_ref's FLOP count), % of this host's measured FMA peak (peak_GFLOP/s), and the ratio torch/ours; plus the load average.
+# (torch_ref's FLOP count), % of this host's measured FMA peak (peak_GFLOP/s), and the ratio torch/ours; plus the
+# load average.
 # Both sides time the same way, torch_ref.py's protocol: one model per config, --warmup untimed steps (default 3,
 # torch_ref.py's; PyTorch's first is its FLOP-counting step), then --steps timed steps (default 5): their median.
 # (Until session 42 ours was the median of 5 separate models' second steps: bench/RESULTS.md.)
@@ -31,7 +32,7 @@ while [ $# -gt 0 ]; do
     --steps) STEPS="$2"; shift ;;
     --warmup) WARMUP="$2"; shift ;;
     --official) OFFICIAL=1 ;;
-    -h|--help) sed -n 2,17p "$0"; exit 0 ;;
+    -h|--help) sed -n 2,18p "$0"; exit 0 ;;
     *) echo "torch_vae_side_by_side.sh: unknown option '$1'" >&2; exit 2 ;;
   esac
   shift

@@ -63,8 +63,8 @@ void run_bench(const BenchOptions& o) {
     return;
   }
   const int saved = t2m::get_num_threads();
-  std::printf("# t2m bench: float GEMM, median of %d reps after %d warm-up; peak = %.1f GFLOP/s per thread (measured)\n", o.reps,
-              o.warmup, peak_gflops_per_core());
+  std::printf("# t2m bench: float GEMM, median of %d reps after %d warm-up; peak = %.1f GFLOP/s per thread (measured)\n",
+              o.reps, o.warmup, peak_gflops_per_core());
   std::printf("%-22s %7s %10s %9s %7s %9s %8s %-7s", "shape (MxNxK:op)", "threads", "ms", "GFLOP/s", "%peak",
               "best GF", "cpu GF", "kernel");
   if (o.eigen) std::printf(" %10s %9s %10s %6s", "eigen ms", "eigen GF", "eigen best", "ratio");

@@ -72,8 +72,9 @@ void time_steps(benchmark::State& st, const std::function<void()>& step, double 
   st.counters["cpu_ms"] = cpu / it * 1e3;
   st.counters["median_cpu_ms"] = median(per_step_cpu) * 1e3;
   st.counters["GFLOP/s"] = gflops;
-  st.counters["peak_GFLOP/s"] = peak_gflops_per_core() * get_num_threads();
-  st.counters["%peak"] = 100.0 * gflops / (peak_gflops_per_core() * get_num_threads());
+  const double peak = peak_gflops_per_core() * get_num_threads();
+  st.counters["peak_GFLOP/s"] = peak;
+  st.counters["%peak"] = 100.0 * gflops / peak;
   st.counters["threads"] = get_num_threads();
 }
 
