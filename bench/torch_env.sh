@@ -23,8 +23,11 @@ torch_best_env() {
 # (BENCH, the configs picked by FILTER; bench/lib/step_timer.h's T2M_BENCH_WARMUP / T2M_BENCH_STEPS) into
 # OUT/ours_<threads>.json, PyTorch (bench/torch_steps.py KIND CONFIGS, after torch_best_env) appended to OUT/torch.txt.
 # Usage: time_both_sides KIND BENCH FILTER CONFIGS THREADS(1,2) STEPS WARMUP TORCH_REF OUT
+# (STEPS and WARMUP must be positive integers: else one message and exit 2.)
 time_both_sides() {
   local kind="$1" bench="$2" filter="$3" configs="$4" threads="$5" steps="$6" warmup="$7" torch_ref="$8" out="$9"
+  [[ "$warmup" =~ ^[1-9][0-9]*$ && "$steps" =~ ^[1-9][0-9]*$ ]] || {
+    echo "$(basename "$0"): --warmup and --steps take positive integers (got '$warmup', '$steps')" >&2; exit 2; }
   local steps_py th
   steps_py="$(dirname "${BASH_SOURCE[0]}")/torch_steps.py"
   echo "# load average before: $(cut -d' ' -f1-3 /proc/loadavg)"

@@ -39,8 +39,6 @@ while [ $# -gt 0 ]; do
   esac
   shift
 done
-[[ "$WARMUP" =~ ^[1-9][0-9]*$ && "$STEPS" =~ ^[1-9][0-9]*$ ]] || {
-  echo "$(basename "$0"): --warmup and --steps take positive integers (got '$WARMUP', '$STEPS')" >&2; exit 2; }
 TORCH_REF="${TORCH_REF:-/work/shared/anchor/torch_ref.py}"
 BENCH="$BUILD_DIR/bench_train_fm"
 [ -x "$BENCH" ] || { echo "torch_fm_side_by_side.sh: $BENCH not built (cmake --build $BUILD_DIR --target bench_train_fm)" >&2; exit 1; }

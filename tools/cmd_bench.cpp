@@ -1,7 +1,7 @@
 // cmd_bench.cpp — `t2m bench`: times our float GEMM on the micro-suite shapes and prints a table
 // (shape, threads, median ms, GFLOP/s, % of FMA peak, best-rep GFLOP/s, CPU-time GFLOP/s, kernel), optionally with
 // Eigen side by side. See bench/lib/gemm_bench.h for what each column means. --peak instead measures this machine's
-// FMA peak per thread count (bench/lib/fma_peak.h), one line each, for the side-by-side scripts.
+// FMA peak per thread count (bench/lib/fma_peak.h), one line each.
 // Only built with the benchmark library (T2M_HAVE_BENCH, i.e. -DT2M_BUILD_BENCH=ON).
 #ifdef T2M_HAVE_BENCH
 #include <cstdio>
@@ -56,12 +56,12 @@ void run_bench(const BenchOptions& o) {
   const auto threads = parse_threads(o.threads);
   if (o.reps < 1) throw t2m::Error("bench: --reps must be >= 1, got " + std::to_string(o.reps));
   if (o.warmup < 0) throw t2m::Error("bench: --warmup must be >= 0, got " + std::to_string(o.warmup));
-  t2m::gemm_force_kernel(o.kernel.c_str());
-  t2m::gemm_force_pack_depth(o.pack_depth);
   if (o.peak) {  // "fma_peak threads N gflops X" lines
     for (int t : threads) std::printf("fma_peak threads %d gflops %.1f\n", t, fma_peak_gflops(t));
     return;
   }
+  t2m::gemm_force_kernel(o.kernel.c_str());
+  t2m::gemm_force_pack_depth(o.pack_depth);
   const int saved = t2m::get_num_threads();
   std::printf("# t2m bench: float GEMM, median of %d reps after %d warm-up; peak = %.1f GFLOP/s per thread (measured)\n",
               o.reps, o.warmup, peak_gflops_per_core());
