@@ -17,6 +17,7 @@
 #include "sim/samcon_mpc.h"
 #include "test_cli_util.h"
 #include "test_sim_walk.h"
+#include "test_scratch_dir.h"
 
 using namespace t2m;
 using namespace t2m::bfm;
@@ -30,10 +31,7 @@ const std::string kHold = "dataset-2_raise-up-left-hand_active_001";  // another
 const std::string kWalk2 = "dataset-1_walk_proud_002";            // same content as a demonstration: the planner's
 
 std::string tmp_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("t2m_test_planner_demos_" + std::to_string(::getpid())) / name;
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d.string();
+  return t2m::test::scratch_dir(name).string();
 }
 
 const RefMotions& refs() {

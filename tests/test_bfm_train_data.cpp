@@ -15,6 +15,7 @@
 #include "nn/checkpoint.h"
 #include "tensor/parallel.h"
 #include "test_bfm_sway.h"
+#include "test_scratch_dir.h"
 
 using namespace t2m;
 using namespace t2m::bfm;
@@ -25,9 +26,7 @@ using t2m::test::swaying;
 
 namespace {
 std::string tmp_path(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("t2m_test_bfm_train_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
-  return (dir / name).string();
+  return (t2m::test::scratch_root() / name).string();
 }
 
 // Row i holds obs = i + k/100, action = -i, next_obs = i + 0.5, clip = i % 3, frame = i.

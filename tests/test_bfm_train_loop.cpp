@@ -15,6 +15,7 @@
 #include "nn/checkpoint.h"
 #include "tensor/ops.h"
 #include "test_bfm_sway.h"
+#include "test_scratch_dir.h"
 
 using namespace t2m;
 using namespace t2m::bfm;
@@ -25,10 +26,7 @@ using t2m::test::swaying;
 
 namespace {
 std::string tmp_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("t2m_test_bfm_loop_" + std::to_string(::getpid())) / name;
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d.string();
+  return t2m::test::scratch_dir(name).string();
 }
 
 const RefMotions& toy_refs() {

@@ -2,7 +2,6 @@
 // masks, padding invariance, the null condition, gradchecks, guided sampling = separate passes, checkpoint round
 // trip, resumable training, and a tiny overfit per conditioning variant (cls, mhsa, mhca).
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
@@ -23,6 +22,7 @@
 #include "nn/train_log.h"
 #include "tensor/ops.h"
 #include "tests/test_tensor_util.h"
+#include "test_scratch_dir.h"
 
 using namespace t2m;
 using namespace t2m::casim;
@@ -32,10 +32,7 @@ namespace fs = std::filesystem;
 namespace {
 
 fs::path temp_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("t2m_test_casimdiff_" + std::to_string(::getpid())) / name;
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
+  return t2m::test::scratch_dir(name);
 }
 
 DenoiserConfig tiny(Conditioning c, int64_t F = 5) {
@@ -301,7 +298,7 @@ TEST(CasimTrain, StopResumeEqualsStraightRun) {
   DiffusionTrainConfig cfg;
   cfg.steps = 6, cfg.batch = 2, cfg.window = 12, cfg.lr = 1e-3, cfg.warmup = 1, cfg.save_every = 2, cfg.seed = 3;
   auto run = [&](const std::string& name, int64_t stop_at, bool resume, CasimDenoiser& m) {
-    const fs::path dir = fs::temp_directory_path() / ("t2m_test_casimdiff_" + std::to_string(::getpid())) / name;
+    const fs::path dir = t2m::test::scratch_root() / name;
     DiffusionTrainConfig c = cfg;
     c.stop_at = stop_at;
     DiffusionTrainPaths p{(dir / "state.t2mckpt").string(), (dir / "log.jsonl").string(), (dir / "loss.svg").string()};

@@ -6,6 +6,7 @@
 #include <fstream>
 
 #include "nn/checkpoint.h"
+#include "test_scratch_dir.h"
 
 namespace fs = std::filesystem;
 using namespace t2m;
@@ -13,11 +14,7 @@ using t2m::nn::Checkpoint;
 
 namespace {
 
-fs::path temp_dir() {
-  fs::path d = fs::temp_directory_path() / ("t2m_ckpt_test_" + std::to_string(::getpid()));
-  fs::create_directories(d);
-  return d;
-}
+fs::path temp_dir() { return t2m::test::scratch_root(); }
 
 std::string read_all(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);

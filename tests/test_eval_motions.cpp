@@ -3,7 +3,6 @@
 // tiny synthetic directory (report written; bad input: one error line, non-zero exit, no report).
 #include <gtest/gtest.h>
 
-#include <unistd.h>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -20,6 +19,7 @@
 #include "tensor/rng.h"
 #include "test_cli_util.h"
 #include "test_tensor_util.h"
+#include "test_scratch_dir.h"
 
 using namespace t2m;
 using t2m::testing::expect_error;
@@ -31,10 +31,7 @@ namespace {
 constexpr int64_t F = data::kFeatureDim;
 
 fs::path temp_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("t2m_test_evalm_" + std::to_string(::getpid())) / name;
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
+  return t2m::test::scratch_dir(name);
 }
 
 void write_text(const fs::path& p, const std::string& s) { std::ofstream(p, std::ios::binary) << s; }

@@ -14,6 +14,7 @@
 #include "sim/bvh.h"
 #include "sim/skeleton.h"
 #include "tensor/tensor.h"
+#include "test_scratch_dir.h"
 
 using namespace t2m::data;
 namespace sim = t2m::sim;
@@ -41,7 +42,7 @@ std::string data_dir() {
 std::string extract_clip(int dataset, const std::string& name) {
   std::string dir = data_dir();
   if (dir.empty()) return "";
-  std::string out = ::testing::TempDir() + "/t2m_feat_bandai";
+  const std::string out = (t2m::test::scratch_root() / "bandai").string();
   fs::create_directories(out);
   std::string member = "Bandai-Namco-Research-Motiondataset-" + std::to_string(dataset) + "/data/" + name + ".bvh";
   std::string path = out + "/" + member;

@@ -18,6 +18,7 @@
 #include "tensor/ops.h"
 #include "tensor/parallel.h"
 #include "test_tensor_util.h"
+#include "test_scratch_dir.h"
 
 using namespace t2m;
 using namespace t2m::text2bfm;
@@ -106,7 +107,7 @@ TEST(FmParity, DamagedFixtureGivesAClearError) {
   std::ifstream in(kFixture, std::ios::binary);
   std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   ASSERT_GT(bytes.size(), 1000u);
-  const std::string path = ::testing::TempDir() + "/fm_parity_damaged.t2mckpt";
+  const std::string path = (t2m::test::scratch_root() / "fm_parity_damaged.t2mckpt").string();
   std::string bad = bytes;
   bad[bytes.size() / 2] ^= 0x5a;
   std::ofstream(path, std::ios::binary) << bad;

@@ -3,7 +3,6 @@
 // equals a straight run bit for bit, its log and plot).
 #include <gtest/gtest.h>
 
-#include <unistd.h>
 #include <filesystem>
 #include <fstream>
 
@@ -16,6 +15,7 @@
 #include "tensor/ops.h"
 #include "tensor/rng.h"
 #include "test_tensor_util.h"
+#include "test_scratch_dir.h"
 
 using namespace t2m;
 using t2m::testing::expect_error;
@@ -24,10 +24,7 @@ namespace fs = std::filesystem;
 namespace {
 
 fs::path temp_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("t2m_test_text_" + std::to_string(::getpid())) / name;
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
+  return t2m::test::scratch_dir(name);
 }
 
 const std::vector<std::pair<std::string, std::string>> kLabels = {
@@ -187,7 +184,7 @@ TEST(RetrievalTrain, StopResumeEqualsStraightRun) {
   text::RetrievalTrainConfig cfg;
   cfg.steps = 8, cfg.batch = 3, cfg.lr = 3e-3, cfg.warmup = 1, cfg.seed = 11, cfg.save_every = 2, cfg.eval_every = 0;
   auto run = [&](const std::string& name, int64_t stop_at, bool resume, text::RetrievalBundle& b) {
-    const fs::path d = fs::temp_directory_path() / ("t2m_test_text_" + std::to_string(::getpid())) / name;
+    const fs::path d = t2m::test::scratch_root() / name;
     fs::create_directories(d);
     text::RetrievalTrainConfig c = cfg;
     c.stop_at = stop_at;
@@ -205,12 +202,10 @@ TEST(RetrievalTrain, StopResumeEqualsStraightRun) {
   ASSERT_EQ(pa.size(), pb.size());
   for (size_t i = 0; i < pa.size(); ++i)
     EXPECT_EQ(max_abs_diff(pa[i].second.data(), pb[i].second.data()), 0.0) << pa[i].first;
-  const auto log = nn::read_train_log(
-      (fs::temp_directory_path() / ("t2m_test_text_" + std::to_string(::getpid())) / "chunked" / "log.jsonl").string());
+  const auto log = nn::read_train_log((t2m::test::scratch_root() / "chunked" / "log.jsonl").string());
   ASSERT_EQ(log.size(), 8u);
   EXPECT_EQ(log.back()["step"], 8);
-  EXPECT_TRUE(
-      fs::exists(fs::temp_directory_path() / ("t2m_test_text_" + std::to_string(::getpid())) / "chunked" / "loss.svg"));
+  EXPECT_TRUE(fs::exists(t2m::test::scratch_root() / "chunked" / "loss.svg"));
   // Resuming with another config is refused.
   auto b3 = text_bundle(9);
   cfg.lr = 1e-3;

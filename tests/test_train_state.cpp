@@ -2,7 +2,6 @@
 // loads the file and runs N more steps must agree bit for bit (parameters, optimizer and EMA state, RNG state,
 // losses); bad checkpoints give clear errors; the progress bar and the JSON-lines log / SVG writer are well formed.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cstdlib>
 #include <cstring>
@@ -19,6 +18,7 @@
 #include "nn/train_state.h"
 #include "tensor/ops.h"
 #include "tensor/rng.h"
+#include "test_scratch_dir.h"
 
 namespace fs = std::filesystem;
 using namespace t2m;
@@ -28,11 +28,7 @@ namespace {
 
 constexpr int64_t kN = 12;  // steps per chunk; the straight run does 2N
 
-fs::path temp_dir() {
-  fs::path d = fs::temp_directory_path() / ("t2m_train_state_test_" + std::to_string(::getpid()));
-  fs::create_directories(d);
-  return d;
-}
+fs::path temp_dir() { return t2m::test::scratch_root(); }
 
 template <typename F>
 void expect_error(F f, std::initializer_list<const char*> needles) {

@@ -8,7 +8,6 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
-#include <unistd.h>
 #include <vector>
 
 #include "models/bfm/policy_checkpoint.h"
@@ -19,6 +18,7 @@
 #include "models/text2bfm/vbb_trainer.h"
 #include "nn/checkpoint.h"
 #include "tensor/ops.h"
+#include "test_scratch_dir.h"
 
 using namespace t2m;
 using namespace t2m::text2bfm;
@@ -27,10 +27,7 @@ namespace fs = std::filesystem;
 namespace {
 
 std::string tmp_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("t2m_test_vbb_train_" + std::to_string(::getpid())) / name;
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d.string();
+  return t2m::test::scratch_dir(name).string();
 }
 
 template <typename F>
