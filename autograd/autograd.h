@@ -1,6 +1,7 @@
 // autograd.h — everything of the autograd layer in one include.
 #pragma once
 #include "autograd/anomaly.h"
+#include "autograd/profiler.h"
 #include "autograd/gradcheck.h"
 #include "autograd/no_grad.h"
 #include "autograd/node.h"

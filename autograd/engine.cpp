@@ -10,6 +10,7 @@
 #include <unordered_set>
 
 #include "autograd/anomaly.h"
+#include "autograd/profiler.h"
 #include "autograd/variable.h"
 #include "tensor/ops.h"
 
@@ -97,6 +98,8 @@ void Variable::backward(const Tensor& seed, bool retain_graph) const {
     accumulate_into(*root, std::move(g0));
     return;
   }
+  Profiler* const prof = Profiler::active();
+  if (prof) prof->on_engine("(untracked)");
   std::vector<Node*> order = post_order(root->grad_fn.get());
   std::unordered_map<Node*, Tensor> grads;  // gradient of each node's output, summed over its consumers
   grads[root->grad_fn.get()] = g0;
@@ -118,11 +121,13 @@ void Variable::backward(const Tensor& seed, bool retain_graph) const {
     std::vector<bool> need(n->inputs.size());
     for (size_t i = 0; i < need.size(); ++i) need[i] = n->inputs[i].defined();
     std::vector<Tensor> gin;
+    if (prof) prof->on_engine("(engine)");
     try {
       gin = n->backward(g, need);
     } catch (const Error& e) {
       throw Error("backward of op '" + n->op + "': " + e.what());
     }
+    if (prof) prof->on_backward(n->op);
     if (!retain_graph) n->release();
     if (gin.size() != n->inputs.size())
       throw Error("backward: op '" + n->op + "' returned " + std::to_string(gin.size()) + " gradients for " +
@@ -151,7 +156,9 @@ void Variable::backward(const Tensor& seed, bool retain_graph) const {
           slot = add(slot, gin[i]);
       }
     }
+    if (prof) prof->on_engine("(grad accumulate)");
   }
+  if (prof) prof->on_engine("(engine)");
 }
 
 }  // namespace t2m::ag

@@ -2,6 +2,7 @@
 #include "autograd/node.h"
 
 #include "autograd/no_grad.h"
+#include "autograd/profiler.h"
 #include "autograd/variable.h"
 #include "tensor/ops.h"
 
@@ -38,6 +39,7 @@ bool any_requires_grad(const std::vector<Variable>& inputs) {
 }
 
 Variable record(const char* op, Tensor out, const std::vector<Variable>& inputs, BackwardFn backward) {
+  if (Profiler* p = Profiler::active()) p->on_forward(op);
   if (!any_requires_grad(inputs)) return Variable(std::move(out));
   auto node = std::make_shared<Node>();
   node->op = op;

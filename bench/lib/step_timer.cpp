@@ -6,8 +6,10 @@
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
+#include <memory>
 #include <vector>
 
+#include "autograd/profiler.h"
 #include "bench/lib/gemm_bench.h"
 #include "tensor/parallel.h"
 
@@ -54,15 +56,22 @@ void time_steps(benchmark::State& st, const std::function<void()>& step, double 
   std::vector<double> per_step, per_step_cpu;  // wall and process CPU seconds of each timed step
   per_step.reserve(4096);
   per_step_cpu.reserve(4096);
+  std::unique_ptr<ag::Profiler> prof;
+  if (std::getenv("T2M_BENCH_PROFILE")) prof = std::make_unique<ag::Profiler>();
   const double cpu0 = process_cpu_seconds();
   const auto t0 = std::chrono::steady_clock::now();
   for (auto _ : st) {
     const double c0 = process_cpu_seconds();
     const auto s0 = std::chrono::steady_clock::now();
+    if (prof) prof->mark("(between steps)");
     step();
+    if (prof) prof->mark("(after backward: optimizer)");
     per_step.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - s0).count());
     per_step_cpu.push_back(process_cpu_seconds() - c0);
   }
+  if (prof)
+    std::fprintf(stderr, "# ag::Profiler over %lld timed steps\n%s", (long long)st.iterations(),
+                 prof->table((int64_t)st.iterations(), 30).c_str());
   const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const double cpu = process_cpu_seconds() - cpu0, it = (double)st.iterations();
   const double gflops = flops_per_step * it / sec * 1e-9;
