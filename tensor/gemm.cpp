@@ -105,14 +105,19 @@ bool streams_c(const MicroKernel<T>& uk, const GemmArgs<T>& g) {
 // costs one pass over A per product (per thread without a shared A), and pays off when each A panel meets many B
 // panels: with at most 512 columns per thread reading in place was 1-5 % faster (fm-paper's 512- and 768-row
 // products, 1024^3), with 768-2048 columns 1-2 % slower, at M = 32 (one row block) ~1 % slower (bench/RESULTS.md,
-// session 41). Forced (gemm_force_read_a) for tests and benchmarks.
+// session 41). Not when A's rows lie a multiple of 4 KB apart (K = 1024, 2048, 3072 floats): the kernel's mr rows
+// then fall in one L1 set (4 KB per way on every host so far), more lines than its ways, and the product ran ~10 %
+// slower in place than packed (768x1024x1024:nt 98 against 108 GFLOP/s on 1 thread, 200 against 216 on 2, AMD Zen 4
+// host; with lda 1040 in place read 107 / 221), session 44. Forced (gemm_force_read_a) for tests and benchmarks.
 std::atomic<int> g_read_a{0};  // 0 automatic, 1 packed, 2 in place where possible
 std::atomic<int64_t> g_in_place_products{0};
+constexpr int64_t kL1WayBytes = 4096;
 template <typename T>
 bool reads_a_in_place(const MicroKernel<T>& uk, const GemmArgs<T>& g, int64_t cols_per_thread, bool stream) {
   if (!uk.kernel_rows || g.ta || g.ac.len || stream) return false;
   const int f = g_read_a.load(std::memory_order_relaxed);
-  return f == 2 || (f == 0 && g.M > uk.mc && cols_per_thread <= 512);
+  const bool rows_alias = g.lda * int64_t(sizeof(T)) % kL1WayBytes == 0;
+  return f == 2 || (f == 0 && g.M > uk.mc && cols_per_thread <= 512 && !rows_alias);
 }
 
 // ---- C = beta C (K == 0 or alpha == 0) -----------------------------------------------------------------------

@@ -56,15 +56,19 @@ TEST(GemmReadA, AutomaticChoice) {
   const int saved = t2m::get_num_threads();
   t2m::set_num_threads(1);
   t2m::gemm_force_read_a("auto");
-  auto ran = [](int64_t M, int64_t N) {
-    std::vector<float> A(size_t(M * 64), 0.5f), B(size_t(64 * N), 0.25f), C(size_t(M * N));
+  auto ran = [](int64_t M, int64_t N, int64_t lda = 64) {
+    std::vector<float> A(size_t(M * lda), 0.5f), B(size_t(64 * N), 0.25f), C(size_t(M * N));
     const int64_t before = t2m::gemm_force_read_a("auto");
-    t2m::gemm(false, false, M, N, 64, 1.0f, A.data(), 64, B.data(), N, 0.0f, C.data(), N);
+    t2m::gemm(false, false, M, N, 64, 1.0f, A.data(), lda, B.data(), N, 0.0f, C.data(), N);
     return t2m::gemm_force_read_a("auto") > before;
   };
   EXPECT_TRUE(ran(400, 256));
   EXPECT_FALSE(ran(400, 2048));  // many columns: each packed A panel meets 64 B panels
   EXPECT_FALSE(ran(100, 256));   // one row block
+  EXPECT_FALSE(ran(400, 256, 1024));  // rows 4 KB apart: all in one L1 set
+  EXPECT_FALSE(ran(400, 256, 3072));
+  EXPECT_TRUE(ran(400, 256, 1040));
+  EXPECT_TRUE(ran(400, 256, 1536));  // 6 KB apart: two sets
   t2m::set_num_threads(saved);
 }
 

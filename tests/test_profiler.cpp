@@ -115,6 +115,23 @@ TEST(Profiler, OnlyTheThreadThatStartedItAndOneAtATime) {
   EXPECT_TRUE(again.ops().empty());
 }
 
+TEST(Profiler, ByShapeKeepsEachInputShapeApart) {
+  Variable a = Variable::parameter(vec({1, 2, 3}), "a"), b = Variable::parameter(vec({1, 2}), "b");
+  ag::Profiler prof(/*by_shape=*/true);
+  ag::sum(ag::add(ag::exp(a), ag::exp(a))).backward();
+  ag::sum(ag::exp(b)).backward();
+  const auto ops = prof.ops();
+  ASSERT_NE(find(ops, "exp [3]"), nullptr);
+  ASSERT_NE(find(ops, "exp [2]"), nullptr);
+  EXPECT_EQ(find(ops, "exp [3]")->calls, 2);
+  EXPECT_EQ(find(ops, "exp [3]")->bwd_calls, 2);
+  EXPECT_EQ(find(ops, "exp [2]")->calls, 1);
+  EXPECT_EQ(find(ops, "exp [2]")->bwd_calls, 1);
+  EXPECT_NE(find(ops, "add [3] [3]"), nullptr);
+  EXPECT_EQ(find(ops, "exp"), nullptr);
+  EXPECT_NE(prof.table().find("add [3] [3]"), std::string::npos);
+}
+
 TEST(Profiler, TablePerStepWithTheRestSummed) {
   Variable x = Variable::parameter(vec({1, 2, 3}), "x");
   ag::Profiler prof;
