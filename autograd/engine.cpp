@@ -127,7 +127,7 @@ void Variable::backward(const Tensor& seed, bool retain_graph) const {
     } catch (const Error& e) {
       throw Error("backward of op '" + n->op + "': " + e.what());
     }
-    if (prof) prof->on_backward(n->op);
+    if (prof) prof->on_backward(n->op, n->input_shapes);
     if (!retain_graph) n->release();
     if (gin.size() != n->inputs.size())
       throw Error("backward: op '" + n->op + "' returned " + std::to_string(gin.size()) + " gradients for " +

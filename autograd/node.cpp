@@ -39,7 +39,12 @@ bool any_requires_grad(const std::vector<Variable>& inputs) {
 }
 
 Variable record(const char* op, Tensor out, const std::vector<Variable>& inputs, BackwardFn backward) {
-  if (Profiler* p = Profiler::active()) p->on_forward(op);
+  if (Profiler* p = Profiler::active()) {
+    std::vector<Shape> shapes;
+    if (p->by_shape())
+      for (const auto& v : inputs) shapes.push_back(v.defined() ? v.shape() : Shape{});
+    p->on_forward(op, shapes);
+  }
   if (!any_requires_grad(inputs)) return Variable(std::move(out));
   auto node = std::make_shared<Node>();
   node->op = op;

@@ -12,7 +12,7 @@ namespace {
 thread_local Profiler* tls_active = nullptr;
 }  // namespace
 
-Profiler::Profiler() {
+Profiler::Profiler(bool by_shape) : by_shape_(by_shape) {
   if (tls_active) throw Error("Profiler: this thread is already being profiled (one Profiler at a time per thread)");
   start_ = last_ = Clock::now();
   tls_active = this;
@@ -37,15 +37,24 @@ OpTime& Profiler::bucket(const std::string& op) {
   return t;
 }
 
-void Profiler::on_forward(const char* op) {
-  OpTime& t = bucket(op);
-  t.fwd_ms += lap();
+std::string Profiler::key(const std::string& op, const std::vector<Shape>& shapes) const {
+  if (!by_shape_) return op;
+  std::string k = op;
+  for (const Shape& s : shapes) k.append(1, ' ').append(shape_str(s));
+  return k;
+}
+
+void Profiler::on_forward(const char* op, const std::vector<Shape>& shapes) {
+  const double ms = lap();  // taken before the key is built (that string work lands on the next event)
+  OpTime& t = bucket(key(op, shapes));
+  t.fwd_ms += ms;
   ++t.calls;
 }
 
-void Profiler::on_backward(const std::string& op) {
-  OpTime& t = bucket(op);
-  t.bwd_ms += lap();
+void Profiler::on_backward(const std::string& op, const std::vector<Shape>& shapes) {
+  const double ms = lap();
+  OpTime& t = bucket(key(op, shapes));
+  t.bwd_ms += ms;
   ++t.bwd_calls;
 }
 
@@ -71,14 +80,17 @@ std::string Profiler::table(int64_t steps, size_t max_rows) const {
   if (steps < 1) throw Error("Profiler::table: steps must be >= 1, got " + std::to_string(steps));
   const std::vector<OpTime> v = ops();
   const double total = total_ms(), s = double(steps);
+  int w = 28;  // the name column: the longest name shown, 28 to 90 characters
+  for (size_t i = 0; i < v.size() && i < max_rows; ++i) w = std::max(w, std::min(90, int(v[i].op.size())));
   std::string out;
-  char line[160];
-  std::snprintf(line, sizeof line, "%-28s %9s %9s %10s %10s %10s %6s\n", "op (per step)", "calls", "bwd calls",
+  char line[256];
+  std::snprintf(line, sizeof line, "%-*s %9s %9s %10s %10s %10s %6s\n", w, "op (per step)", "calls", "bwd calls",
                 "fwd ms", "bwd ms", "total ms", "%");
   out += line;
   auto row = [&](const std::string& name, double calls, double bwd_calls, double fwd, double bwd) {
-    std::snprintf(line, sizeof line, "%-28.28s %9.1f %9.1f %10.3f %10.3f %10.3f %5.1f%%\n", name.c_str(), calls / s,
-                  bwd_calls / s, fwd / s, bwd / s, (fwd + bwd) / s, total > 0 ? 100.0 * (fwd + bwd) / total : 0.0);
+    std::snprintf(line, sizeof line, "%-*.*s %9.1f %9.1f %10.3f %10.3f %10.3f %5.1f%%\n", w, w, name.c_str(),
+                  calls / s, bwd_calls / s, fwd / s, bwd / s, (fwd + bwd) / s,
+                  total > 0 ? 100.0 * (fwd + bwd) / total : 0.0);
     out += line;
   };
   OpTime rest;
@@ -95,7 +107,7 @@ std::string Profiler::table(int64_t steps, size_t max_rows) const {
     std::snprintf(more, sizeof more, "(%zu more)", v.size() - max_rows);
     row(more, double(rest.calls), double(rest.bwd_calls), rest.fwd_ms, rest.bwd_ms);
   }
-  std::snprintf(line, sizeof line, "%-28s %9s %9s %10s %10s %10.3f %5.1f%%\n", "total", "", "", "", "", total / s,
+  std::snprintf(line, sizeof line, "%-*s %9s %9s %10s %10s %10.3f %5.1f%%\n", w, "total", "", "", "", "", total / s,
                 100.0);
   out += line;
   return out;

@@ -6,7 +6,8 @@
 // to one bucket, so the buckets add up exactly to the time from the start to the last event:
 //   - an op recorded on the tape (forward, with or without grad): since the last event -> that op's forward. An op
 //     is recorded when its result is ready, so the glue before it (shape checks, views, a module's own code) counts
-//     with it; an op built from other recorded ops shows as those ops (self time, as in PyTorch).
+//     with it; an op built from other recorded ops shows as those ops (self time, as in PyTorch). So does any
+//     work outside autograd (loading, I/O, a physics step): call mark() where it ends, or it lands on the next op.
 //   - backward(): entering it -> "(untracked)"; each op's backward function -> that op's backward; summing the
 //     gradients of a node or into a leaf's .grad -> "(grad accumulate)"; the engine's own walk -> "(engine)".
 //   - mark(what): since the last event -> bucket `what` (e.g. "adamw" right after the optimizer step, so that its
@@ -18,6 +19,8 @@
 #include <map>
 #include <string>
 #include <vector>
+
+#include "tensor/tensor.h"
 
 namespace t2m::ag {
 
@@ -31,8 +34,9 @@ struct OpTime {
 
 class Profiler {
  public:
-  // Starts measuring this thread; t2m::Error when a Profiler already measures it.
-  Profiler();
+  // Starts measuring this thread; t2m::Error when a Profiler already measures it. by_shape: one bucket per op and
+  // input shapes ("linear [256,16,512] [1536,512] [1536]"), as torch.profiler's group_by_input_shape.
+  explicit Profiler(bool by_shape = false);
   ~Profiler();
   Profiler(const Profiler&) = delete;
   Profiler& operator=(const Profiler&) = delete;
@@ -48,16 +52,20 @@ class Profiler {
 
   // The profiler measuring the calling thread, or nullptr (what the tape and the engine consult).
   static Profiler* active();
-  // Hooks: an op recorded / a backward function run (since the last event) / `what` of the engine.
-  void on_forward(const char* op);
-  void on_backward(const std::string& op);
+  bool by_shape() const { return by_shape_; }
+  // Hooks: an op recorded / a backward function run (since the last event) / `what` of the engine. `shapes`: the
+  // op's input shapes (used when by_shape()).
+  void on_forward(const char* op, const std::vector<Shape>& shapes);
+  void on_backward(const std::string& op, const std::vector<Shape>& shapes);
   void on_engine(const char* what);
 
  private:
   using Clock = std::chrono::steady_clock;
   double lap();  // ms since the last event; that event becomes now
   OpTime& bucket(const std::string& op);
+  std::string key(const std::string& op, const std::vector<Shape>& shapes) const;
 
+  bool by_shape_;
   Clock::time_point start_, last_;
   std::map<std::string, OpTime> ops_;
 };

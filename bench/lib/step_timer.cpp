@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <ctime>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "autograd/profiler.h"
@@ -57,7 +58,8 @@ void time_steps(benchmark::State& st, const std::function<void()>& step, double 
   per_step.reserve(4096);
   per_step_cpu.reserve(4096);
   std::unique_ptr<ag::Profiler> prof;
-  if (std::getenv("T2M_BENCH_PROFILE")) prof = std::make_unique<ag::Profiler>();
+  if (const char* p = std::getenv("T2M_BENCH_PROFILE"))
+    prof = std::make_unique<ag::Profiler>(/*by_shape=*/std::string(p) == "shapes");
   const double cpu0 = process_cpu_seconds();
   const auto t0 = std::chrono::steady_clock::now();
   for (auto _ : st) {

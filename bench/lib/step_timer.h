@@ -15,7 +15,8 @@ double process_cpu_seconds();
 // (the median step: torch_ref.py's statistic), min_ms (the fastest step), cpu_ms (process CPU time per step, all
 // threads, mean), median_cpu_ms (the median step's CPU time), GFLOP/s (flops_per_step per wall second), %peak
 // (against peak_GFLOP/s), peak_GFLOP/s (this machine's measured FMA peak x threads), threads. With
-// T2M_BENCH_PROFILE set, the timed steps run under an ag::Profiler and its per-op table (ms per step) goes to stderr.
+// T2M_BENCH_PROFILE set, the timed steps run under an ag::Profiler and its per-op table (ms per step) goes to stderr
+// (T2M_BENCH_PROFILE=shapes: one row per op and input shapes).
 void time_steps(benchmark::State& st, const std::function<void()>& step, double flops_per_step, int warmup = 1);
 
 // For ->Apply(): with T2M_BENCH_STEPS=N in the environment, every run of the benchmark times exactly N steps of one
