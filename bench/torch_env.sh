@@ -22,22 +22,49 @@ torch_best_env() {
 # Times both sides of the fm or vae side by side with torch_ref.py's protocol, for each thread count: ours
 # (BENCH, the configs picked by FILTER; bench/lib/step_timer.h's T2M_BENCH_WARMUP / T2M_BENCH_STEPS) into
 # OUT/ours_<threads>.json, PyTorch (bench/torch_steps.py KIND CONFIGS, after torch_best_env) appended to OUT/torch.txt.
+# The two sides of a config run back to back, one process each, ours first for the 1st, 3rd, ... config and
+# PyTorch first for the others: this VM's speed drifts over minutes (its second vCPU at times gives a quarter of its
+# FMA rate, session 44), and a config's two measurements seconds apart see the same machine far more often than
+# all of ours followed by all of PyTorch's did. FILTER holds one '|'-separated alternative per CONFIGS entry, in
+# the same order.
 # Usage: time_both_sides KIND BENCH FILTER CONFIGS THREADS(1,2) STEPS WARMUP TORCH_REF OUT
 # (STEPS and WARMUP must be positive integers: else one message and exit 2.)
 time_both_sides() {
   local kind="$1" bench="$2" filter="$3" configs="$4" threads="$5" steps="$6" warmup="$7" torch_ref="$8" out="$9"
   [[ "$warmup" =~ ^[1-9][0-9]*$ && "$steps" =~ ^[1-9][0-9]*$ ]] || {
     echo "$(basename "$0"): --warmup and --steps take positive integers (got '$warmup', '$steps')" >&2; exit 2; }
-  local steps_py th
+  local steps_py th i
+  local -a filters cfgs ours_cmd torch_cmd
+  IFS='|' read -r -a filters <<< "$filter"
+  IFS=',' read -r -a cfgs <<< "$configs"
+  [ "${#filters[@]}" -eq "${#cfgs[@]}" ] || {
+    echo "$(basename "$0"): ${#filters[@]} benchmark filters for ${#cfgs[@]} configs" >&2; exit 2; }
   steps_py="$(dirname "${BASH_SOURCE[0]}")/torch_steps.py"
   echo "# load average before: $(cut -d' ' -f1-3 /proc/loadavg)"
   for th in ${threads//,/ }; do
-    echo "# ours: OMP_NUM_THREADS=$th T2M_BENCH_WARMUP=$warmup T2M_BENCH_STEPS=$steps $bench --benchmark_filter='$filter'"
-    OMP_NUM_THREADS=$th T2M_BENCH_WARMUP=$warmup T2M_BENCH_STEPS=$steps "$bench" --benchmark_filter="$filter" \
-      --benchmark_format=json > "$out/ours_$th.json" 2> /dev/null
-    echo "# torch: ${TORCH_ENV[*]} /usr/bin/python3 bench/torch_steps.py <torch_ref> $th $steps $warmup $kind ..."
-    "${TORCH_ENV[@]}" /usr/bin/python3 "$steps_py" "$torch_ref" "$th" "$steps" "$warmup" "$kind" "$configs" \
-      >> "$out/torch.txt"
+    echo "# ours:  OMP_NUM_THREADS=$th T2M_BENCH_WARMUP=$warmup T2M_BENCH_STEPS=$steps $bench --benchmark_filter=<config>"
+    echo "# torch: ${TORCH_ENV[*]} /usr/bin/python3 bench/torch_steps.py <torch_ref> $th $steps $warmup $kind <config>"
+    echo "# each config's two sides back to back, alternating which goes first"
+    for i in "${!cfgs[@]}"; do
+      ours_cmd=(env OMP_NUM_THREADS="$th" T2M_BENCH_WARMUP="$warmup" T2M_BENCH_STEPS="$steps" "$bench"
+                --benchmark_filter="${filters[$i]}" --benchmark_format=json)
+      torch_cmd=("${TORCH_ENV[@]}" /usr/bin/python3 "$steps_py" "$torch_ref" "$th" "$steps" "$warmup" "$kind"
+                 "${cfgs[$i]}")
+      if (( i % 2 == 0 )); then
+        "${ours_cmd[@]}" > "$out/ours_${th}_$i.json" 2> /dev/null
+        "${torch_cmd[@]}" >> "$out/torch.txt"
+      else
+        "${torch_cmd[@]}" >> "$out/torch.txt"
+        "${ours_cmd[@]}" > "$out/ours_${th}_$i.json" 2> /dev/null
+      fi
+    done
+    # One Google Benchmark JSON per thread count, as a single run would have written it.
+    /usr/bin/python3 - "$out" "$th" "${#cfgs[@]}" <<'PY'
+import json, sys
+out, th, n = sys.argv[1], sys.argv[2], int(sys.argv[3])
+runs = [json.load(open(f"{out}/ours_{th}_{i}.json")) for i in range(n)]
+json.dump(dict(runs[0], benchmarks=[b for r in runs for b in r["benchmarks"]]), open(f"{out}/ours_{th}.json", "w"))
+PY
   done
   echo "# load average after: $(cut -d' ' -f1-3 /proc/loadavg)"
 }
