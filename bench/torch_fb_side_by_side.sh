@@ -5,6 +5,8 @@
 # thread count; prints ms per step (wall, the median step on both sides), our process CPU ms, GFLOP/s with the
 # anchor's FLOP count, % of this host's measured per-core FMA peak, and the speed-up torch_ms / ours_ms. The
 # machine load (uptime) is printed before and after: with other jobs running, wall times are inflated for both.
+# Each group of configs (fb-w256 B256, fb-w1024 B1024) is timed on both sides back to back, one process each,
+# alternating which side goes first (the VM's speed drifts over minutes).
 #
 # --mode cpu: instead of torch_ref.py's wall-clock loop, time torch's fb_case with bench/torch_fb_cputime.py by
 # process CPU time per step (median) and compare it with our cpu_ms (mean): the fairer number on a loaded machine.
@@ -26,7 +28,7 @@ while [ $# -gt 0 ]; do
     --threads) THREADS="$2"; shift ;;
     --only) ONLY="$2"; shift ;;
     --mode) MODE="$2"; shift ;;
-    -h|--help) sed -n 2,16p "$0"; exit 0 ;;
+    -h|--help) sed -n 2,18p "$0"; exit 0 ;;
     *) echo "torch_fb_side_by_side.sh: unknown option '$1'" >&2; exit 2 ;;
   esac
   shift
@@ -37,43 +39,54 @@ BENCH="$BUILD_DIR/bench_train_fb"
 [ -f "$TORCH_REF" ] || { echo "torch_fb_side_by_side.sh: $TORCH_REF not found" >&2; exit 1; }
 TMP="$(mktemp -d)"
 trap 'rm -rf "$TMP"' EXIT
-
-echo "# load before: $(uptime)"
-echo "# ours: OMP_NUM_THREADS=$THREADS $BENCH --benchmark_filter='$ONLY'"
-OMP_NUM_THREADS="$THREADS" "$BENCH" --benchmark_filter="$ONLY" --benchmark_format=json --benchmark_out="$TMP/ours.json" \
-  --benchmark_out_format=json > /dev/null
-
-# torch_ref --only takes comma-separated substrings
-TORCH_ONLY="$(echo "$ONLY" | tr '|' ',')"
-TORCH_ARGS=(--suite fb --only "$TORCH_ONLY" --threads "$THREADS" --no-profile --json "$TMP/torch.json")
-# torch_fb_cputime.py configs (w:B:part) from the same filter
-CPU_CONFIGS="$(echo "$ONLY" | tr '|' '\n' | sed -E 's/fb-w([0-9]+) B([0-9]+)/\1 \2/' | \
-  while read -r w b; do for p in fb actor both; do printf '%s:%s:%s,' "$w" "$b" "$p"; done; done)"
-CPU_CONFIGS="${CPU_CONFIGS%,}"
 source "$REPO/bench/torch_env.sh"
 torch_best_env torch_fb_side_by_side.sh
+echo "# load before: $(uptime)"
+echo "# ours: OMP_NUM_THREADS=$THREADS $BENCH --benchmark_filter=<group>"
 if [ "$MODE" = cpu ]; then
-  echo "# torch (--best environment): bench/torch_fb_cputime.py --threads $THREADS --configs $CPU_CONFIGS"
-  "${TORCH_ENV[@]}" TORCH_REF="$TORCH_REF" /usr/bin/python3 "$REPO/bench/torch_fb_cputime.py" \
-    --threads "$THREADS" --configs "$CPU_CONFIGS" > "$TMP/torch_cpu.txt"
+  echo "# torch (--best environment): bench/torch_fb_cputime.py --threads $THREADS --configs <group's w:B:part>"
 else
-  echo "# torch (--best environment): $TORCH_REF ${TORCH_ARGS[*]}"
-  "${TORCH_ENV[@]}" /usr/bin/python3 "$TORCH_REF" "${TORCH_ARGS[@]}" > "$TMP/torch.txt" 2>&1
+  echo "# torch (--best environment): $TORCH_REF --suite fb --only <group> --threads $THREADS --no-profile --json <tmp>"
 fi
+# Each group of --only ('fb-w256 B256', ...) is timed on both sides back to back, alternating which goes first: the
+# VM's speed drifts over minutes, a group's two measurements seconds apart see the same machine (session 44).
+IFS='|' read -r -a GROUPS_ <<< "$ONLY"
+echo "# each group's two sides back to back, alternating which goes first"
+for i in "${!GROUPS_[@]}"; do
+  group="${GROUPS_[$i]}"
+  ours() {
+    OMP_NUM_THREADS="$THREADS" "$BENCH" --benchmark_filter="$group" --benchmark_format=json \
+      --benchmark_out="$TMP/ours_$i.json" --benchmark_out_format=json > /dev/null
+  }
+  torch() {
+    if [ "$MODE" = cpu ]; then  # torch_fb_cputime.py configs w:B:part
+      local cfg
+      cfg="$(echo "$group" | sed -E 's/fb-w([0-9]+) B([0-9]+)/\1:\2/')"
+      "${TORCH_ENV[@]}" TORCH_REF="$TORCH_REF" /usr/bin/python3 "$REPO/bench/torch_fb_cputime.py" \
+        --threads "$THREADS" --configs "$cfg:fb,$cfg:actor,$cfg:both" >> "$TMP/torch_cpu.txt"
+    else
+      "${TORCH_ENV[@]}" /usr/bin/python3 "$TORCH_REF" --suite fb --only "$group" --threads "$THREADS" --no-profile \
+        --json "$TMP/torch_$i.json" >> "$TMP/torch.txt" 2>&1
+    fi
+  }
+  if (( i % 2 == 0 )); then ours; torch; else torch; ours; fi
+done
 echo "# load after: $(uptime)"
-
-/usr/bin/python3 - "$MODE" "$TMP/ours.json" "$TMP/torch.json" "$TMP/torch_cpu.txt" <<'PY'
+/usr/bin/python3 - "$MODE" "$TMP" "${#GROUPS_[@]}" <<'PY'
 import json, sys
-mode = sys.argv[1]
-ours = {b["name"].split("/")[0]: b for b in json.load(open(sys.argv[2]))["benchmarks"]}
+mode, tmp, ngroups = sys.argv[1], sys.argv[2], int(sys.argv[3])
+ours = {}
+for i in range(ngroups):
+    ours.update({b["name"].split("/")[0]: b for b in json.load(open(f"{tmp}/ours_{i}.json"))["benchmarks"]})
 torch = {}
 if mode == "cpu":
-    for line in open(sys.argv[4]):
+    for line in open(f"{tmp}/torch_cpu.txt"):
         f = line.split()
         torch[" ".join(f[:3])] = {"cpu": float(f[4]), "ms": float(f[5])}
 else:
-    for r in json.load(open(sys.argv[3]))["runs"][-1]["results"]:
-        torch[r["name"]] = {"ms": r["median_ms"], "gflops": r["gflops"]}
+    for i in range(ngroups):
+        for r in json.load(open(f"{tmp}/torch_{i}.json"))["runs"][-1]["results"]:
+            torch[r["name"]] = {"ms": r["median_ms"], "gflops": r["gflops"]}
 key = "cpu" if mode == "cpu" else "ms"
 print(f"compared by {'process CPU ms per step' if mode == 'cpu' else 'wall ms per step'}")
 print(f"{'config':22s} {'thr':>3s} {'ours ms':>9s} {'ours cpu':>9s} {'GF/s(cpu)':>9s} {'%peak':>6s} "
