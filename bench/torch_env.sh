@@ -27,8 +27,18 @@ torch_best_env() {
 # FMA rate, session 44), and a config's two measurements seconds apart see the same machine far more often than
 # all of ours followed by all of PyTorch's did. FILTER holds one '|'-separated alternative per CONFIGS entry, in
 # the same order.
+# Around each side the host's FMA peak is probed (`t2m bench --peak`, 0.1 s) and printed: a side whose probes read
+# well below the usual (e.g. 145 instead of 234 GFLOP/s on 2 threads) ran on a slowed machine.
 # Usage: time_both_sides KIND BENCH FILTER CONFIGS THREADS(1,2) STEPS WARMUP TORCH_REF OUT
 # (STEPS and WARMUP must be positive integers: else one message and exit 2.)
+# The FMA peak (GFLOP/s) on THREADS threads, by the t2m binary next to BENCH; "-" when it is not built.
+host_peak() {
+  local t2m
+  t2m="$(dirname "$1")/t2m"
+  [ -x "$t2m" ] || { echo "-"; return; }
+  "$t2m" bench --peak --threads "$2" | awk '{print $5}'
+}
+
 time_both_sides() {
   local kind="$1" bench="$2" filter="$3" configs="$4" threads="$5" steps="$6" warmup="$7" torch_ref="$8" out="$9"
   [[ "$warmup" =~ ^[1-9][0-9]*$ && "$steps" =~ ^[1-9][0-9]*$ ]] || {
@@ -50,13 +60,20 @@ time_both_sides() {
                 --benchmark_filter="${filters[$i]}" --benchmark_format=json)
       torch_cmd=("${TORCH_ENV[@]}" /usr/bin/python3 "$steps_py" "$torch_ref" "$th" "$steps" "$warmup" "$kind"
                  "${cfgs[$i]}")
+      local p0 p1 p2 first=ours
+      p0="$(host_peak "$bench" "$th")"
       if (( i % 2 == 0 )); then
         "${ours_cmd[@]}" > "$out/ours_${th}_$i.json" 2> /dev/null
+        p1="$(host_peak "$bench" "$th")"
         "${torch_cmd[@]}" >> "$out/torch.txt"
       else
+        first=torch
         "${torch_cmd[@]}" >> "$out/torch.txt"
+        p1="$(host_peak "$bench" "$th")"
         "${ours_cmd[@]}" > "$out/ours_${th}_$i.json" 2> /dev/null
       fi
+      p2="$(host_peak "$bench" "$th")"
+      echo "# ${cfgs[$i]} ($th threads, $first first): host FMA peak before / between / after: $p0 / $p1 / $p2 GFLOP/s"
     done
     # One Google Benchmark JSON per thread count, as a single run would have written it.
     /usr/bin/python3 - "$out" "$th" "${#cfgs[@]}" <<'PY'

@@ -6,7 +6,8 @@
 # anchor's FLOP count, % of this host's measured per-core FMA peak, and the speed-up torch_ms / ours_ms. The
 # machine load (uptime) is printed before and after: with other jobs running, wall times are inflated for both.
 # Each group of configs (fb-w256 B256, fb-w1024 B1024) is timed on both sides back to back, one process each,
-# alternating which side goes first (the VM's speed drifts over minutes).
+# alternating which side goes first (the VM's speed drifts over minutes), and the host's FMA peak probed around
+# each side (bench/torch_env.sh host_peak) is printed.
 #
 # --mode cpu: instead of torch_ref.py's wall-clock loop, time torch's fb_case with bench/torch_fb_cputime.py by
 # process CPU time per step (median) and compare it with our cpu_ms (mean): the fairer number on a loaded machine.
@@ -28,7 +29,7 @@ while [ $# -gt 0 ]; do
     --threads) THREADS="$2"; shift ;;
     --only) ONLY="$2"; shift ;;
     --mode) MODE="$2"; shift ;;
-    -h|--help) sed -n 2,18p "$0"; exit 0 ;;
+    -h|--help) sed -n 2,19p "$0"; exit 0 ;;
     *) echo "torch_fb_side_by_side.sh: unknown option '$1'" >&2; exit 2 ;;
   esac
   shift
@@ -69,7 +70,11 @@ for i in "${!GROUPS_[@]}"; do
         --json "$TMP/torch_$i.json" >> "$TMP/torch.txt" 2>&1
     fi
   }
-  if (( i % 2 == 0 )); then ours; torch; else torch; ours; fi
+  p0="$(host_peak "$BENCH" "$THREADS")"
+  if (( i % 2 == 0 )); then ours; p1="$(host_peak "$BENCH" "$THREADS")"; torch; first=ours
+  else torch; p1="$(host_peak "$BENCH" "$THREADS")"; ours; first=torch; fi
+  p2="$(host_peak "$BENCH" "$THREADS")"
+  echo "# $group ($THREADS threads, $first first): host FMA peak before / between / after: $p0 / $p1 / $p2 GFLOP/s"
 done
 echo "# load after: $(uptime)"
 /usr/bin/python3 - "$MODE" "$TMP" "${#GROUPS_[@]}" <<'PY'
