@@ -1,7 +1,6 @@
 // autograd.h — everything of the autograd layer in one include.
 #pragma once
 #include "autograd/anomaly.h"
-#include "autograd/profiler.h"
 #include "autograd/gradcheck.h"
 #include "autograd/no_grad.h"
 #include "autograd/node.h"
@@ -13,4 +12,5 @@
 #include "autograd/ops_shape.h"
 #include "autograd/ops_softmax.h"
 #include "autograd/ops_unary.h"
+#include "autograd/profiler.h"
 #include "autograd/variable.h"

@@ -87,9 +87,9 @@ void gemm_force_kernel(const char* name);
 int gemm_force_pack_depth(int blocks);
 // How the float kernel reads op(A) = A (not transposed, not in segments): "auto" (the default: in place when each
 // thread meets at most 512 columns of C, there is more than one row block and A's rows are not a multiple of 4 KB
-// apart, else packed), "packed" or "in_place"
-// (wherever possible); Error for any other mode. It changes no bit of any result (the same FMAs in the same order);
-// tests and benchmarks compare the modes. Returns how many products have read A in place so far.
+// apart, else packed), "packed" or "in_place" (wherever possible); Error for any other mode. It changes no bit of
+// any result (the same FMAs in the same order); tests and benchmarks compare the modes. Returns how many products
+// have read A in place so far.
 int64_t gemm_force_read_a(const char* mode);
 
 }  // namespace t2m
