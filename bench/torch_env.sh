@@ -27,16 +27,27 @@ torch_best_env() {
 # FMA rate, session 44), and a config's two measurements seconds apart see the same machine far more often than
 # all of ours followed by all of PyTorch's did. FILTER holds one '|'-separated alternative per CONFIGS entry, in
 # the same order.
-# Around each side the host's FMA peak is probed (`t2m bench --peak`, 0.1 s) and printed: a side whose probes read
-# well below the usual (e.g. 145 instead of 234 GFLOP/s on 2 threads) ran on a slowed machine.
+# Around each side the host's FMA peak and memory bandwidth are probed (`t2m bench --peak --bandwidth`, 0.4 s) and
+# printed: a side whose probes read well below the usual (e.g. 145 instead of 234 GFLOP/s, or 29 instead of 50 GB/s,
+# on 2 threads) ran on a slowed machine.
 # Usage: time_both_sides KIND BENCH FILTER CONFIGS THREADS(1,2) STEPS WARMUP TORCH_REF OUT
 # (STEPS and WARMUP must be positive integers: else one message and exit 2.)
-# The FMA peak (GFLOP/s) on THREADS threads, by the t2m binary next to BENCH; "-" when it is not built.
+# "FMA_GFLOPS TRIAD_GBPS": the FMA peak and the memory bandwidth (STREAM triad) on THREADS threads right now, by the
+# t2m binary next to BENCH (0.4 s); "- -" when it is not built.
 host_peak() {
   local t2m
   t2m="$(dirname "$1")/t2m"
-  [ -x "$t2m" ] || { echo "-"; return; }
-  "$t2m" bench --peak --threads "$2" | awk '{print $5}'
+  [ -x "$t2m" ] || { echo "- -"; return; }
+  "$t2m" bench --peak --bandwidth --threads "$2" | awk '{v[$1] = $5} END {print v["fma_peak"], v["mem_triad"]}'
+}
+
+# One line for the three probes around a config's two sides: "FMA a / b / c GFLOP/s, triad d / e / f GB/s".
+probe_line() {
+  local -a p0 p1 p2
+  read -r -a p0 <<< "$1"
+  read -r -a p1 <<< "$2"
+  read -r -a p2 <<< "$3"
+  echo "FMA ${p0[0]} / ${p1[0]} / ${p2[0]} GFLOP/s, triad ${p0[1]} / ${p1[1]} / ${p2[1]} GB/s"
 }
 
 time_both_sides() {
@@ -73,7 +84,7 @@ time_both_sides() {
         "${ours_cmd[@]}" > "$out/ours_${th}_$i.json" 2> /dev/null
       fi
       p2="$(host_peak "$bench" "$th")"
-      echo "# ${cfgs[$i]} ($th threads, $first first): host FMA peak before / between / after: $p0 / $p1 / $p2 GFLOP/s"
+      echo "# ${cfgs[$i]} ($th threads, $first first), host before / between / after: $(probe_line "$p0" "$p1" "$p2")"
     done
     # One Google Benchmark JSON per thread count, as a single run would have written it.
     /usr/bin/python3 - "$out" "$th" "${#cfgs[@]}" <<'PY'

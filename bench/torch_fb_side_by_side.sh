@@ -6,8 +6,8 @@
 # anchor's FLOP count, % of this host's measured per-core FMA peak, and the speed-up torch_ms / ours_ms. The
 # machine load (uptime) is printed before and after: with other jobs running, wall times are inflated for both.
 # Each group of configs (fb-w256 B256, fb-w1024 B1024) is timed on both sides back to back, one process each,
-# alternating which side goes first (the VM's speed drifts over minutes), and the host's FMA peak probed around
-# each side (bench/torch_env.sh host_peak) is printed.
+# alternating which side goes first (the VM's speed drifts over minutes), and the host's FMA peak and memory
+# bandwidth probed around each side (bench/torch_env.sh host_peak) are printed.
 #
 # --mode cpu: instead of torch_ref.py's wall-clock loop, time torch's fb_case with bench/torch_fb_cputime.py by
 # process CPU time per step (median) and compare it with our cpu_ms (mean): the fairer number on a loaded machine.
@@ -74,7 +74,7 @@ for i in "${!GROUPS_[@]}"; do
   if (( i % 2 == 0 )); then first=ours; ours "$group" "$i"; p1="$(host_peak "$BENCH" "$THREADS")"; torch "$group" "$i"
   else first=torch; torch "$group" "$i"; p1="$(host_peak "$BENCH" "$THREADS")"; ours "$group" "$i"; fi
   p2="$(host_peak "$BENCH" "$THREADS")"
-  echo "# $group ($THREADS threads, $first first): host FMA peak before / between / after: $p0 / $p1 / $p2 GFLOP/s"
+  echo "# $group ($THREADS threads, $first first), host before / between / after: $(probe_line "$p0" "$p1" "$p2")"
 done
 echo "# load after: $(uptime)"
 /usr/bin/python3 - "$MODE" "$TMP" "${#GROUPS_[@]}" <<'PY'

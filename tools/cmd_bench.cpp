@@ -1,7 +1,8 @@
 // cmd_bench.cpp — `t2m bench`: times our float GEMM on the micro-suite shapes and prints a table
 // (shape, threads, median ms, GFLOP/s, % of FMA peak, best-rep GFLOP/s, CPU-time GFLOP/s, kernel), optionally with
 // Eigen side by side. See bench/lib/gemm_bench.h for what each column means. --peak instead measures this machine's
-// FMA peak per thread count (bench/lib/fma_peak.h), one line each.
+// FMA peak per thread count (bench/lib/fma_peak.h), --bandwidth its memory bandwidth (bench/lib/mem_bandwidth.h),
+// one line each.
 // Only built with the benchmark library (T2M_HAVE_BENCH, i.e. -DT2M_BUILD_BENCH=ON).
 #ifdef T2M_HAVE_BENCH
 #include <cstdio>
@@ -12,6 +13,7 @@
 
 #include "bench/lib/fma_peak.h"
 #include "bench/lib/gemm_bench.h"
+#include "bench/lib/mem_bandwidth.h"
 #include "tensor/gemm.h"
 #include "tensor/parallel.h"
 #include "tensor/tensor.h"
@@ -28,6 +30,7 @@ struct BenchOptions {
   int warmup = 2;
   bool eigen = false;
   bool peak = false;
+  bool bandwidth = false;
 };
 
 std::vector<int> parse_threads(const std::string& s) {
@@ -56,8 +59,11 @@ void run_bench(const BenchOptions& o) {
   const auto threads = parse_threads(o.threads);
   if (o.reps < 1) throw t2m::Error("bench: --reps must be >= 1, got " + std::to_string(o.reps));
   if (o.warmup < 0) throw t2m::Error("bench: --warmup must be >= 0, got " + std::to_string(o.warmup));
-  if (o.peak) {  // "fma_peak threads N gflops X" lines
-    for (int t : threads) std::printf("fma_peak threads %d gflops %.1f\n", t, fma_peak_gflops(t));
+  if (o.peak || o.bandwidth) {  // "fma_peak threads N gflops X" / "mem_triad threads N gbps X" lines
+    for (int t : threads) {
+      if (o.peak) std::printf("fma_peak threads %d gflops %.1f\n", t, fma_peak_gflops(t));
+      if (o.bandwidth) std::printf("mem_triad threads %d gbps %.1f\n", t, triad_gbps(t));
+    }
     return;
   }
   t2m::gemm_force_kernel(o.kernel.c_str());
@@ -103,6 +109,8 @@ void add_bench(CLI::App& app) {
       ->capture_default_str();
   c->add_flag("--eigen", opts->eigen, "also time Eigen on the same shapes");
   c->add_flag("--peak", opts->peak, "instead measure this machine's FP32 FMA peak (GFLOP/s) per thread count");
+  c->add_flag("--bandwidth", opts->bandwidth,
+              "instead (or with --peak) measure its memory bandwidth (STREAM triad, GB/s) per thread count");
   c->callback([opts] { run_bench(*opts); });
 }
 

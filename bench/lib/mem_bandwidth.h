@@ -1,0 +1,13 @@
+// mem_bandwidth.h — this machine's main-memory bandwidth right now, measured: on the shared VMs it moves by a
+// quarter within a minute (29-50 GB/s on 2 threads, 3 s apart, while the FMA peak held at 234 GFLOP/s; session 44),
+// and the vae and fm steps slow with it. The side-by-side scripts print it around each measurement.
+#pragma once
+
+namespace t2m::bench {
+
+// GB/s of `threads` threads running the STREAM triad c = a + s b over three 64 MB float arrays (12 bytes per
+// element: two reads and a write; the write's read-for-ownership not counted), the best of `tries` passes after
+// one untimed pass that faults the pages in.
+double triad_gbps(int threads, int tries = 3);
+
+}  // namespace t2m::bench
