@@ -1,13 +1,14 @@
-// mem_bandwidth.h — this machine's main-memory bandwidth right now, measured: on the shared VMs it moves by a
-// quarter within a minute (29-50 GB/s on 2 threads, 3 s apart, while the FMA peak held at 234 GFLOP/s; session 44),
-// and the vae and fm steps slow with it. The side-by-side scripts print it around each measurement.
+// mem_bandwidth.h — this machine's main-memory bandwidth right now, measured: on the shared VMs it moves within a
+// minute (a triad on 4 KB pages read 29-50 GB/s on 2 threads, 3 s apart, while the FMA peak held at 234 GFLOP/s;
+// session 44), and the vae and fm steps slow with it. The side-by-side scripts print it around each measurement.
 #pragma once
 
 namespace t2m::bench {
 
-// GB/s of `threads` threads running the STREAM triad c = a + s b over three 64 MB float arrays (12 bytes per
-// element: two reads and a write; the write's read-for-ownership not counted), the best of `tries` passes after
-// one untimed pass that faults the pages in.
+// GB/s of `threads` threads running the STREAM triad c = a + s b over three 64 MB float arrays on 2 MB pages where
+// the kernel allows (12 bytes per element: two reads and a write; the write's read-for-ownership not counted), the
+// best of `tries` passes after one untimed pass that faults c in. ~71 GB/s on 2 threads of the Zen 4 host when
+// quiet.
 double triad_gbps(int threads, int tries = 3);
 
 }  // namespace t2m::bench
