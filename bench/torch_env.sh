@@ -28,8 +28,9 @@ torch_best_env() {
 # all of ours followed by all of PyTorch's did. FILTER holds one '|'-separated alternative per CONFIGS entry, in
 # the same order.
 # Around each side the host's FMA peak and memory bandwidth are probed (`t2m bench --peak --bandwidth`, 0.4 s) and
-# printed: a side whose probes read well below the usual (e.g. 145 instead of 234 GFLOP/s, or 29 instead of 50 GB/s,
-# on 2 threads) ran on a slowed machine.
+# printed as a record of its state: the FMA probe flags a vCPU giving a fraction of its rate (145 instead of 234
+# GFLOP/s on 2 threads), the triad memory contention (35-43 against ~71 GB/s when quiet); neither separated the fast
+# and slow phases of a 6-pair test (bench/RESULTS.md, session 44), so several rounds are still needed.
 # Usage: time_both_sides KIND BENCH FILTER CONFIGS THREADS(1,2) STEPS WARMUP TORCH_REF OUT
 # (STEPS and WARMUP must be positive integers: else one message and exit 2.)
 # "FMA_GFLOPS TRIAD_GBPS": the FMA peak and the memory bandwidth (STREAM triad) on THREADS threads right now, by the

@@ -1,8 +1,6 @@
 // mem_bandwidth.cpp — the triad over arrays far larger than any cache, split statically over the threads.
 #include "bench/lib/mem_bandwidth.h"
 
-#include <omp.h>
-
 #include <chrono>
 #include <cstdint>
 #include <cstdlib>
@@ -27,9 +25,12 @@ double triad_gbps(int threads, int tries) {
   };
   const auto a = alloc(), b = alloc(), c = alloc();
   float* const pa = a.get();
-  const float* const pb = b.get();
+  float* const pb = b.get();
   float* const pc = c.get();
-  for (int64_t i = 0; i < n; ++i) pa[i] = 1.0f, b[i] = 2.0f;
+  for (int64_t i = 0; i < n; ++i) {
+    pa[i] = 1.0f;
+    pb[i] = 2.0f;
+  }
   double best = 0;
   for (int t = -1; t < tries; ++t) {  // t = -1: the untimed pass (c's first touch)
     const auto t0 = std::chrono::steady_clock::now();

@@ -1,6 +1,6 @@
 // mem_bandwidth.h — this machine's main-memory bandwidth right now, measured: on the shared VMs it moves within a
 // minute (a triad on 4 KB pages read 29-50 GB/s on 2 threads, 3 s apart, while the FMA peak held at 234 GFLOP/s;
-// session 44), and the vae and fm steps slow with it. The side-by-side scripts print it around each measurement.
+// session 44). The side-by-side scripts print it around each measurement, as a record of the host's state.
 #pragma once
 
 namespace t2m::bench {
