@@ -51,6 +51,21 @@ probe_line() {
   echo "FMA ${p0[0]} / ${p1[0]} / ${p2[0]} GFLOP/s, triad ${p0[1]} / ${p1[1]} / ${p2[1]} GB/s"
 }
 
+# Runs config number N's two sides back to back, OURS_FN first when N is even and TORCH_FN first otherwise (each a
+# command that times one side), probes the host before, between and after (host_peak on BENCH's t2m, THREADS
+# threads) and prints one line about it labelled LABEL.
+# Usage: back_to_back N LABEL BENCH THREADS OURS_FN TORCH_FN
+back_to_back() {
+  local n="$1" label="$2" bench="$3" th="$4" first="$5" second="$6" first_name=ours p0 p1 p2
+  if (( n % 2 )); then first="$6" second="$5" first_name=torch; fi
+  p0="$(host_peak "$bench" "$th")"
+  "$first"
+  p1="$(host_peak "$bench" "$th")"
+  "$second"
+  p2="$(host_peak "$bench" "$th")"
+  echo "# $label ($th threads, $first_name first), host before / between / after: $(probe_line "$p0" "$p1" "$p2")"
+}
+
 time_both_sides() {
   local kind="$1" bench="$2" filter="$3" configs="$4" threads="$5" steps="$6" warmup="$7" torch_ref="$8" out="$9"
   [[ "$warmup" =~ ^[1-9][0-9]*$ && "$steps" =~ ^[1-9][0-9]*$ ]] || {
@@ -72,20 +87,7 @@ time_both_sides() {
                 --benchmark_filter="${filters[$i]}" --benchmark_format=json)
       torch_cmd=("${TORCH_ENV[@]}" /usr/bin/python3 "$steps_py" "$torch_ref" "$th" "$steps" "$warmup" "$kind"
                  "${cfgs[$i]}")
-      local p0 p1 p2 first=ours
-      p0="$(host_peak "$bench" "$th")"
-      if (( i % 2 == 0 )); then
-        "${ours_cmd[@]}" > "$out/ours_${th}_$i.json" 2> /dev/null
-        p1="$(host_peak "$bench" "$th")"
-        "${torch_cmd[@]}" >> "$out/torch.txt"
-      else
-        first=torch
-        "${torch_cmd[@]}" >> "$out/torch.txt"
-        p1="$(host_peak "$bench" "$th")"
-        "${ours_cmd[@]}" > "$out/ours_${th}_$i.json" 2> /dev/null
-      fi
-      p2="$(host_peak "$bench" "$th")"
-      echo "# ${cfgs[$i]} ($th threads, $first first), host before / between / after: $(probe_line "$p0" "$p1" "$p2")"
+      back_to_back "$i" "${cfgs[$i]}" "$bench" "$th" time_ours_side time_torch_side
     done
     # One Google Benchmark JSON per thread count, as a single run would have written it.
     /usr/bin/python3 - "$out" "$th" "${#cfgs[@]}" <<'PY'
@@ -97,3 +99,6 @@ PY
   done
   echo "# load average after: $(cut -d' ' -f1-3 /proc/loadavg)"
 }
+# time_both_sides's two sides (they read its locals ours_cmd / torch_cmd, out, th, i: bash scoping is dynamic).
+time_ours_side() { "${ours_cmd[@]}" > "$out/ours_${th}_$i.json" 2> /dev/null; }
+time_torch_side() { "${torch_cmd[@]}" >> "$out/torch.txt"; }

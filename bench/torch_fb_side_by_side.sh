@@ -52,29 +52,25 @@ fi
 # Each group of --only ('fb-w256 B256', ...) is timed on both sides back to back, alternating which goes first: the
 # VM's speed drifts over minutes, a group's two measurements seconds apart see the same machine (session 44).
 IFS='|' read -r -a GROUPS_ <<< "$ONLY"
-ours() {  # group $1, output index $2
-  OMP_NUM_THREADS="$THREADS" "$BENCH" --benchmark_filter="$1" --benchmark_format=json \
-    --benchmark_out="$TMP/ours_$2.json" --benchmark_out_format=json > /dev/null
+ours() {  # the group $group, output index $i
+  OMP_NUM_THREADS="$THREADS" "$BENCH" --benchmark_filter="$group" --benchmark_format=json \
+    --benchmark_out="$TMP/ours_$i.json" --benchmark_out_format=json > /dev/null
 }
-torch() {  # group $1, output index $2
+torch() {  # the group $group, output index $i
   if [ "$MODE" = cpu ]; then  # torch_fb_cputime.py configs w:B:part
     local cfg
-    cfg="$(echo "$1" | sed -E 's/fb-w([0-9]+) B([0-9]+)/\1:\2/')"
+    cfg="$(echo "$group" | sed -E 's/fb-w([0-9]+) B([0-9]+)/\1:\2/')"
     "${TORCH_ENV[@]}" TORCH_REF="$TORCH_REF" /usr/bin/python3 "$REPO/bench/torch_fb_cputime.py" \
       --threads "$THREADS" --configs "$cfg:fb,$cfg:actor,$cfg:both" >> "$TMP/torch_cpu.txt"
   else
-    "${TORCH_ENV[@]}" /usr/bin/python3 "$TORCH_REF" --suite fb --only "$1" --threads "$THREADS" --no-profile \
-      --json "$TMP/torch_$2.json" >> "$TMP/torch.txt" 2>&1
+    "${TORCH_ENV[@]}" /usr/bin/python3 "$TORCH_REF" --suite fb --only "$group" --threads "$THREADS" --no-profile \
+      --json "$TMP/torch_$i.json" >> "$TMP/torch.txt" 2>&1
   fi
 }
 echo "# each group's two sides back to back, alternating which goes first"
 for i in "${!GROUPS_[@]}"; do
   group="${GROUPS_[$i]}"
-  p0="$(host_peak "$BENCH" "$THREADS")"
-  if (( i % 2 == 0 )); then first=ours; ours "$group" "$i"; p1="$(host_peak "$BENCH" "$THREADS")"; torch "$group" "$i"
-  else first=torch; torch "$group" "$i"; p1="$(host_peak "$BENCH" "$THREADS")"; ours "$group" "$i"; fi
-  p2="$(host_peak "$BENCH" "$THREADS")"
-  echo "# $group ($THREADS threads, $first first), host before / between / after: $(probe_line "$p0" "$p1" "$p2")"
+  back_to_back "$i" "$group" "$BENCH" "$THREADS" ours torch
 done
 echo "# load after: $(uptime)"
 /usr/bin/python3 - "$MODE" "$TMP" "${#GROUPS_[@]}" <<'PY'
