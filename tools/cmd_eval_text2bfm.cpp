@@ -26,6 +26,7 @@
 #include "models/eval/evaluator.h"
 #include "models/eval/motion_dir_write.h"
 #include "models/text2bfm/eval_generation.h"
+#include "models/text2bfm/pipeline_checkpoints.h"
 #include "nn/checkpoint.h"
 #include "nn/progress.h"
 #include "tensor/parallel.h"
@@ -75,7 +76,7 @@ void run(Args a) {
   const auto tp0 = std::chrono::steady_clock::now();
   if (a.tracking) {
     // The controller's share: the BFM tracking the real clips with their Eq 2 latents, from the reference start.
-    const std::string bfm_p = a.bfm.empty() ? a.checkpoints + "/bfm_small.t2mckpt" : a.bfm;
+    const std::string bfm_p = a.bfm.empty() ? t2b::PipelinePaths::in_dir(a.checkpoints).bfm : a.bfm;
     if (!fs::exists(bfm_p)) throw Error("eval text2bfm: missing BFM " + bfm_p + " (t2m train bfm)");
     auto agent = t2m::bfm::load_policy(bfm_p);
     auto h = t2m::sim::Humanoid::create();
@@ -170,7 +171,7 @@ void add_eval_text2bfm(CLI::App& app) {
   c->add_option("--gen", a->gen, "generator checkpoint (default CHECKPOINTS/gen_small.t2mckpt)");
   c->add_option("--vbb", a->vbb, "VBB checkpoint (default CHECKPOINTS/vbb_small.t2mckpt)");
   c->add_option("--text", a->text, "text encoder checkpoint (default CHECKPOINTS/text_encoder.t2mckpt)");
-  c->add_option("--bfm", a->bfm, "BFM policy checkpoint (default CHECKPOINTS/bfm_small.t2mckpt)");
+  c->add_option("--bfm", a->bfm, "BFM policy checkpoint (default CHECKPOINTS/bfm_distill.t2mckpt)");
   c->add_option("--evaluator", a->evaluator, "metric evaluator checkpoint")->capture_default_str();
   c->add_option("--cfg", a->opt.gen.cfg, "classifier-free guidance weight w")->capture_default_str();
   c->add_option("--steps", a->opt.gen.steps, "sampler steps (0: 16 Euler steps for a flow generator, 50 DDIM "

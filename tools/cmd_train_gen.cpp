@@ -51,9 +51,9 @@ void run(GenArgs a, const std::string& cmdline) {
   if (a.paraphrases < 1) throw Error("train gen: --paraphrases must be >= 1");
   if (a.window < 1) throw Error("train gen: --window must be >= 1");
   a.train.validate();
-  const std::string text_p = or_default(a.text, a.ckpt_dir + "/text_encoder.t2mckpt");
-  const std::string vbb_p = or_default(a.vbb, a.ckpt_dir + "/vbb_small.t2mckpt");
-  const std::string bfm_p = or_default(a.bfm, a.ckpt_dir + "/bfm_small.t2mckpt");
+  const auto set = t2b::PipelinePaths::in_dir(a.ckpt_dir);
+  const std::string text_p = or_default(a.text, set.text), vbb_p = or_default(a.vbb, set.vbb);
+  const std::string bfm_p = or_default(a.bfm, set.bfm);
   require(text_p, "t2m train text");
   require(vbb_p, "t2m train vbb");
   require(bfm_p, "t2m train bfm");
@@ -159,7 +159,7 @@ void add_train_gen(CLI::App& app) {
       ->capture_default_str();
   c->add_option("--text", a->text, "text encoder checkpoint (default CHECKPOINTS/text_encoder.t2mckpt)");
   c->add_option("--vbb", a->vbb, "VBB checkpoint (default CHECKPOINTS/vbb_small.t2mckpt)");
-  c->add_option("--bfm", a->bfm, "BFM policy checkpoint (default CHECKPOINTS/bfm_small.t2mckpt)");
+  c->add_option("--bfm", a->bfm, "BFM policy checkpoint (default CHECKPOINTS/bfm_distill.t2mckpt)");
   c->add_option("--latents", a->latents, "latent cache (default ~/.cache/t2m/latents/train.t2mckpt)");
   c->add_option("--manifest", a->manifest, "data manifest (default ~/.cache/t2m/bandai/manifest.json)");
   c->add_option("--out", a->out, "output directory (default ~/.cache/t2m/gen)");

@@ -21,6 +21,7 @@
 #include "models/bfm/policy_checkpoint.h"
 #include "models/text/text_motion_model.h"
 #include "models/text2bfm/latent_cache.h"
+#include "models/text2bfm/pipeline_checkpoints.h"
 #include "models/text2bfm/vbb_average_pool.h"
 #include "models/text2bfm/vbb_checkpoint.h"
 #include "models/text2bfm/vbb_eval.h"
@@ -96,7 +97,7 @@ void run_train_vbb(TrainVbbArgs a, const std::string& cmdline) {
     const tb::VbbConfig c = tb::VbbConfig::with_compression(a.compression, in_dim);
     a.cfg.vbb.levels = c.levels;
   }
-  const std::string bfm_path = a.bfm.empty() ? first_existing({"models/checkpoints/bfm_small.t2mckpt"}) : a.bfm;
+  const std::string bfm_path = a.bfm.empty() ? tb::PipelinePaths::in_dir("models/checkpoints").bfm : a.bfm;
   if (!fs::exists(bfm_path))
     throw Error("train vbb: no BFM policy at " + bfm_path + " (pass --bfm, e.g. one exported by `t2m train bfm "
                 "--export-only --export PATH`)");
@@ -248,7 +249,7 @@ void add_train_vbb(CLI::App& app) {
   cfg.vbb.width = 128;  // the small CPU config (docs/VBB.md); the paper's is --width 256 --depth 3
   cfg.vbb.depth = 2;
   c->add_option("--out", a.out, "run directory (default ~/.cache/t2m/vbb/default)");
-  c->add_option("--bfm", a.bfm, "BFM policy checkpoint (default models/checkpoints/bfm_small.t2mckpt)");
+  c->add_option("--bfm", a.bfm, "BFM policy checkpoint (default models/checkpoints/bfm_distill.t2mckpt)");
   c->add_option("--text", a.text, "text encoder checkpoint (default models/checkpoints/text_encoder.t2mckpt)");
   c->add_option("--latents", a.latents, "latent cache directory (default ~/.cache/t2m/latents)");
   c->add_option("--manifest", a.manifest, "data manifest (default ~/.cache/t2m/bandai/manifest.json)");

@@ -1,5 +1,6 @@
-// policy_checkpoint.h — the shipped BFM (models/checkpoints/bfm_small.t2mckpt): what the text-to-motion pipeline
-// needs from a trained FbAgent, the actor pi(a | s, z) and the backward map B (for Eq 2 latents), plus the config.
+// policy_checkpoint.h — a shipped BFM (models/checkpoints/bfm_*.t2mckpt; the pipeline's: bfm_distill): what the
+// text-to-motion pipeline needs from a trained FbAgent, the actor pi(a | s, z) and the backward map B (for Eq 2
+// latents), plus the config.
 // F, the target networks and the optimizer state stay in the training state (~/.cache/t2m/bfm/...).
 //
 //   save_policy(agent, "models/checkpoints/bfm_small.t2mckpt", {{"updates", 20000}, ...});

@@ -56,11 +56,6 @@ void project_to_sphere(Tensor& z) {
 
 }  // namespace
 
-PipelinePaths PipelinePaths::in_dir(const std::string& dir) {
-  return {dir + "/text_encoder.t2mckpt", dir + "/vbb_small.t2mckpt", dir + "/gen_small.t2mckpt",
-          dir + "/bfm_small.t2mckpt"};
-}
-
 Text2BfmModels load_text2bfm(const PipelinePaths& p) {
   require_file(p.text, "frozen text encoder", "t2m train text");
   require_file(p.vbb, "VBB", "t2m train vbb");

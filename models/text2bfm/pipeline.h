@@ -45,12 +45,6 @@
 
 namespace t2m::text2bfm {
 
-struct PipelinePaths {
-  std::string text, vbb, gen, bfm;
-  // DIR/text_encoder.t2mckpt, DIR/vbb_small.t2mckpt, DIR/gen_small.t2mckpt, DIR/bfm_small.t2mckpt
-  static PipelinePaths in_dir(const std::string& dir);
-};
-
 struct Text2BfmModels {
   text::RetrievalBundle text;             // a TextMotionModel (kind "text_encoder")
   const text::TextEncoder* encoder = nullptr;

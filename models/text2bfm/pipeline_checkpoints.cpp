@@ -70,6 +70,11 @@ FlowGeneratorConfig flow_config_from_json(const json& j) {
   return c;
 }
 
+PipelinePaths PipelinePaths::in_dir(const std::string& dir) {
+  return {dir + "/text_encoder.t2mckpt", dir + "/vbb_small.t2mckpt", dir + "/gen_small.t2mckpt",
+          dir + "/bfm_distill.t2mckpt"};
+}
+
 void save_gen_checkpoint(const GenBundle& b, const std::string& path) {
   if (!b.model) throw Error("gen checkpoint " + path + ": no model");
   const int64_t d = b.model->config().latent;

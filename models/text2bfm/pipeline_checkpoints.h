@@ -1,4 +1,5 @@
-// pipeline_checkpoints.h — the checkpoint files the text-to-motion pipeline reads (models/checkpoints/):
+// pipeline_checkpoints.h — the checkpoint files the text-to-motion pipeline reads (models/checkpoints/; PipelinePaths
+// names the set):
 //
 //   gen_small.t2mckpt  (written here, `t2m train gen`): nn::Checkpoint, meta {"format": "t2m-gen-1",
 //     "config": flow_config_to_json(cfg), "program": {"compression": c, "latent": d_m, "window": Tm},
@@ -21,6 +22,14 @@
 #include "tensor/tensor.h"
 
 namespace t2m::text2bfm {
+
+// The four files of a pipeline set in one directory; the tools' defaults (generate, train vbb / gen, eval).
+struct PipelinePaths {
+  std::string text, vbb, gen, bfm;
+  // DIR/text_encoder.t2mckpt, DIR/vbb_small.t2mckpt, DIR/gen_small.t2mckpt, DIR/bfm_distill.t2mckpt (the BFM whose
+  // latent space the VBB and generator were trained on)
+  static PipelinePaths in_dir(const std::string& dir);
+};
 
 nlohmann::json flow_config_to_json(const FlowGeneratorConfig& c);
 FlowGeneratorConfig flow_config_from_json(const nlohmann::json& j);
