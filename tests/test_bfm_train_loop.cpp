@@ -295,6 +295,14 @@ TEST(BfmTrackEval, UsesThePdScorerOnEveryFrame) {
   EXPECT_EQ(own[1].frames_ok, bfm[1].frames_ok);
   EXPECT_NE(one[1].mpjpe_m, bfm[1].mpjpe_m);
   EXPECT_THROW(track_bfm(agent, humanoid(), r, {}, -1), Error);
+  // A latent map: the identity changes nothing; other latents change the rollout; another shape is refused.
+  const TrackLatentMap identity = [](const Tensor& z) { return z.clone(); };
+  const auto same = track_bfm(agent, humanoid(), r, {}, 0, identity);
+  EXPECT_EQ(same[1].simulated.qpos, bfm[1].simulated.qpos);
+  const TrackLatentMap negate = [](const Tensor& z) { return t2m::mul(z, -1.0); };
+  EXPECT_NE(track_bfm(agent, humanoid(), r, {}, 0, negate)[1].simulated.qpos, bfm[1].simulated.qpos);
+  const TrackLatentMap shorter = [](const Tensor& z) { return z.narrow(0, 0, 1).contiguous(); };
+  EXPECT_THROW(track_bfm(agent, humanoid(), r, {}, 0, shorter), Error);
 }
 
 TEST(BfmTrackEval, HoldableStartClipsKeepsStandingPosesOnly) {

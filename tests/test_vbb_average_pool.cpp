@@ -2,10 +2,12 @@
 // 1/4/8/16 its posterior mean is the mean of c consecutive latents and its decoder repeats each program frame c
 // times (both against direct loops); scored by vbb_eval it gives the same numbers as evaluate_average_pooling,
 // with and without the sphere projection; a deeper VBB initialised at pooling (--pool-init) reproduces it in train
-// mode too (residual branches zeroed); project_rows_to_sphere; bad arguments.
+// mode too (residual branches zeroed); project_rows_to_sphere; reconstruct_clip_latents; bad arguments.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "autograd/no_grad.h"
 #include "models/text2bfm/vbb_average_pool.h"
@@ -141,6 +143,30 @@ TEST(VbbAveragePool, ProjectRowsToSphere) {
   }
   Tensor zero = Tensor::zeros({2, 4});
   EXPECT_EQ(project_rows_to_sphere(zero).data<float>()[3], 0.f);
+}
+
+// One clip through the pooling VBB as the tracking row `eval text2bfm --tracking --through-vbb` uses it: each latent
+// becomes the projected mean of its block of c, the last block padded by repeating the clip's last latent.
+TEST(VbbAveragePool, ReconstructClipLatentsIsTheProjectedBlockMean) {
+  const int64_t d = 8, c = 4, T = 10;  // blocks [0,4) [4,8) [8,10)+2 copies of latent 9
+  const Tensor z = randn({T, d}, 5).contiguous();
+  auto vbb = make_average_pooling_vbb(d, c, 32);
+  const Tensor r = reconstruct_clip_latents(*vbb, z).contiguous();
+  ASSERT_EQ(r.shape(), (Shape{T, d}));
+  const float* zp = z.data<float>();
+  double worst = 0;
+  for (int64_t t = 0; t < T; ++t) {
+    std::vector<double> mean(d, 0.0);
+    const int64_t j0 = t / c * c;
+    for (int64_t u = j0; u < j0 + c; ++u)
+      for (int64_t k = 0; k < d; ++k) mean[k] += zp[std::min(u, T - 1) * d + k] / (double)c;
+    double n2 = 0;
+    for (double v : mean) n2 += v * v;
+    for (int64_t k = 0; k < d; ++k)
+      worst = std::max(worst, std::abs(mean[k] * std::sqrt(d / n2) - r.data<float>()[t * d + k]));
+  }
+  EXPECT_LT(worst, 1e-4);
+  expect_error([&] { reconstruct_clip_latents(*vbb, randn({T, d + 1}, 6)); }, {"program dataset:", "latents"});
 }
 
 TEST(VbbAveragePool, BadArguments) {

@@ -2,14 +2,15 @@
 // tracking rollouts, the controller's reference row) on a data split with the `t2m eval motions` protocol.
 //   t2m eval text2bfm --out DIR [--split test] [--checkpoints D] [--gen CKPT] [--vbb CKPT] [--text CKPT]
 //                     [--bfm CKPT] [--cfg 1.5] [--steps N] [--mm-prompts 32] [--samples 10] [--seed 0]
-//                     [--max-clips N] [--runs 20] [--threads T] [--tracking]
+//                     [--max-clips N] [--runs 20] [--threads T] [--tracking [--through-vbb]]
 // For every clip of the split (sorted by name; --max-clips N: N spread evenly) the caption the real-motion row uses
 // (make_caption(labels, seed 7, index 0)) is generated at the clip's length with the chain (no render), the
 // simulated states s_1..s_T become raw features (models/text2bfm/eval_generation.h), DIR gets a motions directory
 // (motions.json + .npy, docs/TEXT.md) with --samples samples of --mm-prompts prompts for MultiModality, and the
 // evaluator scores it (models/eval/evaluate_motions.h, FID against the split's real clips) into DIR/eval.json.
 // --tracking: instead of generating, the BFM tracks each real clip from its reference start with its Eq 2 latents
-// (models/bfm/track_eval.h); the rollouts are scored the same way (no MultiModality).
+// (models/bfm/track_eval.h); the rollouts are scored the same way (no MultiModality). --through-vbb: those latents
+// first go through the VBB (reconstruct_clip_latents: encoder mean, decoder, Proj), the bottleneck's share.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -27,6 +28,8 @@
 #include "models/eval/motion_dir_write.h"
 #include "models/text2bfm/eval_generation.h"
 #include "models/text2bfm/pipeline_checkpoints.h"
+#include "models/text2bfm/vbb_checkpoint.h"
+#include "models/text2bfm/vbb_eval.h"
 #include "nn/checkpoint.h"
 #include "nn/progress.h"
 #include "tensor/parallel.h"
@@ -49,7 +52,7 @@ struct Args {
   std::string evaluator = "models/checkpoints/evaluator.t2mckpt", label;
   t2b::EvalGenOptions opt = [] { t2b::EvalGenOptions o; o.gen.steps = 0; return o; }();
   int max_clips = 0;
-  bool tracking = false;
+  bool tracking = false, through_vbb = false;
   t2m::eval::EvalProtocol protocol;
 };
 
@@ -89,7 +92,18 @@ void run(Args a) {
     for (int c = 0; c < refs.clips(); ++c)
       if (by_name.count(refs.names[c])) sel.add(*h, refs.names[c], refs.trajectory(c));
     if (sel.clips() == 0) throw Error("eval text2bfm: no reference clip of the split matched the data clips");
-    const auto res = t2m::bfm::track_bfm(*agent, h, sel);
+    std::unique_ptr<t2b::Vbb> vbb;
+    std::string vbb_p;
+    if (a.through_vbb) {
+      vbb_p = a.vbb.empty() ? t2b::PipelinePaths::in_dir(a.checkpoints).vbb : a.vbb;
+      vbb = t2b::load_vbb(vbb_p);
+      if (vbb->config().in_dim != agent->config().z_dim)
+        throw Error("eval text2bfm: the VBB " + vbb_p + " does not take this BFM's latents (in_dim " +
+                    std::to_string(vbb->config().in_dim) + ", z_dim " + std::to_string(agent->config().z_dim) + ")");
+    }
+    t2m::bfm::TrackLatentMap through;
+    if (vbb) through = [&](const t2m::Tensor& z) { return t2b::reconstruct_clip_latents(*vbb, z); };
+    const auto res = t2m::bfm::track_bfm(*agent, h, sel, {}, 0, through);
     int fell = 0;
     for (int c = 0; c < sel.clips(); ++c) {
       const auto* clip = by_name.at(sel.names[c]);
@@ -106,6 +120,10 @@ void run(Args a) {
     stats = {{"clips", sel.clips()}, {"fell", fell}, {"bfm", bfm_p}};
     what = "BFM tracking rollouts (Eq 2 latents of the real clips, reference start) of the " + a.split +
            " split, " + bfm_p;
+    if (vbb) {
+      stats["through_vbb"] = vbb_p;
+      what += ", latents through the VBB " + vbb_p;
+    }
   } else {
     auto paths = t2b::PipelinePaths::in_dir(a.checkpoints);
     if (!a.gen.empty()) paths.gen = a.gen;
@@ -153,7 +171,9 @@ void run(Args a) {
   t2m::cli::ScoreRequest sr;
   sr.dir = a.out, sr.evaluator = a.evaluator, sr.what = what, sr.reference = &clips, sr.protocol = a.protocol;
   sr.fid_reference = "real motions of the " + a.split + " split (" + std::to_string(clips.size()) + " clips)";
-  sr.label = a.label.empty() ? (a.tracking ? "BFM tracking (real Eq 2 latents)" : "Text2BFM") : a.label;
+  const char* track_label = a.through_vbb ? "BFM tracking (real Eq 2 latents through the VBB)"
+                                          : "BFM tracking (real Eq 2 latents)";
+  sr.label = a.label.empty() ? (a.tracking ? track_label : "Text2BFM") : a.label;
   sr.summary = "Bandai-Namco, our " + a.split + " split";
   sr.fields = {{"data", provenance["data"]}, {"stats", stats}, {"produce_s", produce_s}};
   t2m::cli::score_motion_dir(sr);
@@ -185,6 +205,9 @@ void add_eval_text2bfm(CLI::App& app) {
       ->capture_default_str();
   c->add_option("--label", a->label, "row label of the printed table line");
   c->add_flag("--tracking", a->tracking, "score the BFM's tracking rollouts of the real clips instead");
+  c->add_flag("--through-vbb", a->through_vbb,
+              "with --tracking: the real clips' latents go through the VBB first (encoder mean, decoder, Proj)")
+      ->needs("--tracking");
   c->add_option("--data", a->data.data_dir, "motion data directory");
   c->add_option("--cache", a->data.cache_dir, "cache directory");
   c->add_option("--threads", a->data.threads, "threads: generations run in parallel over clips (0 = default)");

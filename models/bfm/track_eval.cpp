@@ -30,7 +30,7 @@ Tensor clip_states(const RefMotions& refs, int c) {
 }
 
 std::vector<sim::PdResult> track_bfm(FbAgent& agent, std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs,
-                                     const sim::PdOptions& opt, int window) {
+                                     const sim::PdOptions& opt, int window, const TrackLatentMap& map) {
   check_tracking_refs(&agent, *h, refs);
   ag::NoGradGuard ng;
   const int N = refs.clips(), D = refs.obs_dim, A = h->model()->nu, d = agent.config().z_dim;
@@ -38,7 +38,15 @@ std::vector<sim::PdResult> track_bfm(FbAgent& agent, std::shared_ptr<const sim::
   if (window < 0) throw Error("track_bfm: window must be >= 0 (0 = the agent's track_window), got " +
                               std::to_string(window));
   const int L = window > 0 ? window : agent.config().track_window;
-  for (int c = 0; c < N; ++c) z[c] = agent.infer_tracking_z(clip_states(refs, c), L).contiguous();
+  for (int c = 0; c < N; ++c) {
+    z[c] = agent.infer_tracking_z(clip_states(refs, c), L).contiguous();
+    if (!map) continue;
+    Tensor m = map(z[c]).contiguous();
+    if (m.shape() != z[c].shape() || m.dtype() != z[c].dtype())
+      throw Error("track_bfm: the latent map turned " + shape_str(z[c].shape()) + " into " + shape_str(m.shape()) +
+                  " (clip " + refs.names[c] + ")");
+    z[c] = std::move(m);
+  }
   std::vector<std::unique_ptr<sim::Env>> envs;
   std::vector<sim::TrackingScorer> score;
   score.reserve(N);

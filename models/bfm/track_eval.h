@@ -16,6 +16,7 @@
 // for the latent sequences; FbAgent::action_kl).
 // Errors (t2m::Error): references of another model or obs dim, an empty clip list.
 #pragma once
+#include <functional>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <vector>
@@ -32,9 +33,12 @@ Tensor clip_states(const RefMotions& refs, int c);
 // Throws t2m::Error when refs is empty, of another model than h, or (agent given) of other obs / action dims.
 void check_tracking_refs(const FbAgent* agent, const sim::Humanoid& h, const RefMotions& refs);
 
-// window: L of Eq 2 for the latents (0 = the agent's track_window).
+// A clip's Eq 2 latents [T-1, d] -> the latents tracked instead, same shape (e.g. a bottleneck's reconstruction).
+using TrackLatentMap = std::function<Tensor(const Tensor& z)>;
+// window: L of Eq 2 for the latents (0 = the agent's track_window); map (optional): applied to every clip's latents
+// before the rollout (Error when it changes their shape).
 std::vector<sim::PdResult> track_bfm(FbAgent& agent, std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs,
-                                     const sim::PdOptions& opt = {}, int window = 0);
+                                     const sim::PdOptions& opt = {}, int window = 0, const TrackLatentMap& map = {});
 std::vector<sim::PdResult> track_pd_all(std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs,
                                         const sim::PdOptions& opt = {});
 std::vector<sim::PdResult> track_balance_all(std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs,

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "autograd/no_grad.h"
+#include "models/text2bfm/program_dataset.h"
 
 namespace t2m::text2bfm {
 namespace {
@@ -97,6 +98,15 @@ Tensor project_rows_to_sphere(const Tensor& z) {
     for (int64_t k = 0; k < d; ++k) p[r * d + k] = (float)(p[r * d + k] * s);
   }
   return out;
+}
+
+// z (T, d) -> programs (Tm, latent) -> D_θ -> (Tm c, d) -> first T rows -> Proj.
+Tensor reconstruct_clip_latents(const Vbb& vbb, const Tensor& z) {
+  const Tensor m = encode_programs(vbb, {z})[0];
+  ag::NoGradGuard ng;
+  Generator unused(0);
+  const Tensor zh = vbb.decode(ag::Variable(m.transpose(0, 1).unsqueeze(0).contiguous()), unused).data();  // (1,Tp,d)
+  return project_rows_to_sphere(zh.select(0, 0).narrow(0, 0, z.size(0)));
 }
 
 // Table 4 columns for a trained VBB: ẑ = D_θ(μ_φ(z)) (then Proj when `project`).

@@ -43,5 +43,9 @@ VbbEvalResult evaluate_average_pooling(const LatentSet& set, int64_t compression
                                        bfm::FbAgent* agent, int64_t batch = 64, bool project = true);
 // Every row z_t of z (..., d) scaled to norm sqrt(d) (Eq 2's Proj); rows of norm 0 stay 0.
 Tensor project_rows_to_sphere(const Tensor& z);
+// One clip's latents z (T, d) through the bottleneck as generation would use its own program: m = the posterior mean
+// of encode_programs (program_dataset.h: right-padded by repeating the last latent), ẑ = D_θ(m) cut to T rows, each
+// put on the sphere. (T, d) float32. Errors: those of encode_programs.
+Tensor reconstruct_clip_latents(const Vbb& vbb, const Tensor& z);
 
 }  // namespace t2m::text2bfm
