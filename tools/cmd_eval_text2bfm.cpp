@@ -76,10 +76,15 @@ void run(Args a) {
   std::vector<t2m::eval::MotionEntry> entries;
   json stats;
   std::string what;
+  auto paths = t2b::PipelinePaths::in_dir(a.checkpoints);  // the set, with the files given on the command line
+  if (!a.gen.empty()) paths.gen = a.gen;
+  if (!a.vbb.empty()) paths.vbb = a.vbb;
+  if (!a.text.empty()) paths.text = a.text;
+  if (!a.bfm.empty()) paths.bfm = a.bfm;
   const auto tp0 = std::chrono::steady_clock::now();
   if (a.tracking) {
     // The controller's share: the BFM tracking the real clips with their Eq 2 latents, from the reference start.
-    const std::string bfm_p = a.bfm.empty() ? t2b::PipelinePaths::in_dir(a.checkpoints).bfm : a.bfm;
+    const std::string& bfm_p = paths.bfm;
     if (!fs::exists(bfm_p)) throw Error("eval text2bfm: missing BFM " + bfm_p + " (t2m train bfm)");
     auto agent = t2m::bfm::load_policy(bfm_p);
     auto h = t2m::sim::Humanoid::create();
@@ -93,9 +98,8 @@ void run(Args a) {
       if (by_name.count(refs.names[c])) sel.add(*h, refs.names[c], refs.trajectory(c));
     if (sel.clips() == 0) throw Error("eval text2bfm: no reference clip of the split matched the data clips");
     std::unique_ptr<t2b::Vbb> vbb;
-    std::string vbb_p;
+    const std::string& vbb_p = paths.vbb;
     if (a.through_vbb) {
-      vbb_p = a.vbb.empty() ? t2b::PipelinePaths::in_dir(a.checkpoints).vbb : a.vbb;
       vbb = t2b::load_vbb(vbb_p);
       if (vbb->config().in_dim != agent->config().z_dim)
         throw Error("eval text2bfm: the VBB " + vbb_p + " does not take this BFM's latents (in_dim " +
@@ -125,11 +129,6 @@ void run(Args a) {
       what += ", latents through the VBB " + vbb_p;
     }
   } else {
-    auto paths = t2b::PipelinePaths::in_dir(a.checkpoints);
-    if (!a.gen.empty()) paths.gen = a.gen;
-    if (!a.vbb.empty()) paths.vbb = a.vbb;
-    if (!a.text.empty()) paths.text = a.text;
-    if (!a.bfm.empty()) paths.bfm = a.bfm;
     auto models = t2b::load_text2bfm(paths);
     if (a.opt.gen.steps == 0) a.opt.gen.steps = models.gen.objective == "diffusion" ? 50 : 16;
     for (const auto& w : models.warnings) std::fprintf(stderr, "eval text2bfm: warning: %s\n", w.c_str());
