@@ -15,6 +15,7 @@
 #include "models/text2bfm/flow_sampler.h"
 #include "models/text2bfm/latent_cache.h"
 #include "models/text2bfm/vbb_checkpoint.h"
+#include "models/text2bfm/vbb_eval.h"
 #include "sim/env.h"
 #include "sim/observation.h"
 
@@ -40,18 +41,6 @@ double process_cpu_s() {
 void require_file(const std::string& path, const std::string& what, const std::string& how) {
   if (!fs::is_regular_file(path))
     throw Error("missing checkpoint " + path + " (" + what + "; make it with `" + how + "`)");
-}
-
-// Every row of z (T, d) scaled to norm sqrt(d) (the sphere the BFM's latents live on).
-void project_to_sphere(Tensor& z) {
-  const int64_t T = z.size(0), d = z.size(1);
-  float* p = z.data<float>();
-  for (int64_t t = 0; t < T; ++t) {
-    double n2 = 0;
-    for (int64_t k = 0; k < d; ++k) n2 += double(p[t * d + k]) * p[t * d + k];
-    const double s = n2 > 0 ? std::sqrt(double(d) / n2) : 0.0;
-    for (int64_t k = 0; k < d; ++k) p[t * d + k] = float(p[t * d + k] * s);
-  }
 }
 
 }  // namespace
@@ -184,7 +173,7 @@ Generation generate_motion(Text2BfmModels& m, const std::string& prompt, const G
     Tensor z = compose_latents(segs, N > 1 ? opt.overlap : 0);
     g.z = z.narrow(0, 0, std::min<int64_t>(T, z.size(0))).clone();
   }
-  project_to_sphere(g.z);
+  g.z = project_rows_to_sphere(g.z);  // the sphere the BFM's latents live on
   g.times.decode = seconds_since(t0);
   g.cpu.decode = process_cpu_s() - c0;
 
