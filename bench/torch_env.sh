@@ -19,20 +19,6 @@ torch_best_env() {
              LD_PRELOAD="$root$lib/libtcmalloc_minimal.so.4")
 }
 
-# Times both sides of the fm or vae side by side with torch_ref.py's protocol, for each thread count: ours
-# (BENCH, the configs picked by FILTER; bench/lib/step_timer.h's T2M_BENCH_WARMUP / T2M_BENCH_STEPS) into
-# OUT/ours_<threads>.json, PyTorch (bench/torch_steps.py KIND CONFIGS, after torch_best_env) appended to OUT/torch.txt.
-# The two sides of a config run back to back, one process each, ours first for the 1st, 3rd, ... config and
-# PyTorch first for the others: this VM's speed drifts over minutes (its second vCPU at times gives a quarter of its
-# FMA rate, session 44), and a config's two measurements seconds apart see the same machine far more often than
-# all of ours followed by all of PyTorch's did. FILTER holds one '|'-separated alternative per CONFIGS entry, in
-# the same order.
-# Around each side the host's FMA peak and memory bandwidth are probed (`t2m bench --peak --bandwidth`, 0.4 s) and
-# printed as a record of its state: the FMA probe flags a vCPU giving a fraction of its rate (145 instead of 234
-# GFLOP/s on 2 threads), the triad memory contention (35-43 against ~71 GB/s when quiet); neither separated the fast
-# and slow phases of a 6-pair test (bench/RESULTS.md, session 44), so several rounds are still needed.
-# Usage: time_both_sides KIND BENCH FILTER CONFIGS THREADS(1,2) STEPS WARMUP TORCH_REF OUT
-# (STEPS and WARMUP must be positive integers: else one message and exit 2.)
 # "FMA_GFLOPS TRIAD_GBPS": the FMA peak and the memory bandwidth (STREAM triad) on THREADS threads right now, by the
 # t2m binary next to BENCH (0.4 s); "- -" when it is not built.
 host_peak() {
@@ -66,6 +52,20 @@ back_to_back() {
   echo "# $label ($th threads, $first_name first), host before / between / after: $(probe_line "$p0" "$p1" "$p2")"
 }
 
+# Times both sides of the fm or vae side by side with torch_ref.py's protocol, for each thread count: ours
+# (BENCH, the configs picked by FILTER; bench/lib/step_timer.h's T2M_BENCH_WARMUP / T2M_BENCH_STEPS) into
+# OUT/ours_<threads>.json, PyTorch (bench/torch_steps.py KIND CONFIGS, after torch_best_env) appended to OUT/torch.txt.
+# The two sides of a config run back to back, one process each, ours first for the 1st, 3rd, ... config and
+# PyTorch first for the others: this VM's speed drifts over minutes (its second vCPU at times gives a quarter of its
+# FMA rate, session 44), and a config's two measurements seconds apart see the same machine far more often than
+# all of ours followed by all of PyTorch's did. FILTER holds one '|'-separated alternative per CONFIGS entry, in
+# the same order.
+# Around each side the host's FMA peak and memory bandwidth are probed (`t2m bench --peak --bandwidth`, 0.4 s) and
+# printed as a record of its state: the FMA probe flags a vCPU giving a fraction of its rate (145 instead of 234
+# GFLOP/s on 2 threads), the triad memory contention (35-43 against ~71 GB/s when quiet); neither separated the fast
+# and slow phases of a 6-pair test (bench/RESULTS.md, session 44), so several rounds are still needed.
+# Usage: time_both_sides KIND BENCH FILTER CONFIGS THREADS(1,2) STEPS WARMUP TORCH_REF OUT
+# (STEPS and WARMUP must be positive integers: else one message and exit 2.)
 time_both_sides() {
   local kind="$1" bench="$2" filter="$3" configs="$4" threads="$5" steps="$6" warmup="$7" torch_ref="$8" out="$9"
   [[ "$warmup" =~ ^[1-9][0-9]*$ && "$steps" =~ ^[1-9][0-9]*$ ]] || {

@@ -3,7 +3,6 @@
 
 #include <chrono>
 #include <ctime>
-#include <cmath>
 #include <filesystem>
 
 #include "autograd/no_grad.h"
