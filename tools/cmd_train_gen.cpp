@@ -175,6 +175,9 @@ void add_train_gen(CLI::App& app) {
   c->add_option("--objective", a->train.objective, "flow (Eq 15) | diffusion (v-prediction, Table 5's variant)")
       ->capture_default_str();
   c->add_option("--schedule", a->train.schedule, "diffusion noise schedule: cosine | linear")->capture_default_str();
+  c->add_option("--ema", a->train.ema, "EMA decay of the weights (0 = off); the checkpoint then holds the averaged "
+                                       "weights")
+      ->capture_default_str();
   c->add_option("--window", a->window, "program frames per training window")->capture_default_str();
   c->add_option("--paraphrases", a->paraphrases, "captions per clip")->capture_default_str();
   c->add_option("--width", a->gen.width, "generator width")->capture_default_str();

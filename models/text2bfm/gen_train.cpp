@@ -4,7 +4,9 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <memory>
 
+#include "nn/ema.h"
 #include "nn/loss_diffusion.h"
 #include "nn/loss_flow.h"
 #include "nn/lr_schedule.h"
@@ -20,6 +22,7 @@ namespace t2m::text2bfm {
 nlohmann::json GenTrainConfig::to_json() const {
   nlohmann::json j = common_json();
   if (objective != "flow") j["objective"] = objective, j["schedule"] = schedule;
+  if (ema > 0) j["ema"] = ema;
   return j;
 }
 
@@ -28,6 +31,7 @@ void GenTrainConfig::validate() const {
   if (objective != "flow" && objective != "diffusion")
     throw Error("gen train: objective must be flow or diffusion, got '" + objective + "'");
   nn::noise_schedule_from_name(schedule);
+  if (!(ema >= 0 && ema < 1)) throw Error("gen train: ema must be in [0, 1), got " + std::to_string(ema));
 }
 
 GenTrainResult train_generator(FlowGenerator& gen, const ProgramDataset& data, const GenTrainConfig& cfg,
@@ -43,6 +47,11 @@ GenTrainResult train_generator(FlowGenerator& gen, const ProgramDataset& data, c
                                  {"clips", (int64_t)data.programs.size()}, {"captions", data.tokens.size(0)}};
   nn::TrainState ts(params, config);
   ts.optimizer(opt).generator("data", data_rng).generator("flow", flow_rng).generator("drop", drop_rng);
+  std::unique_ptr<nn::Ema> ema;
+  if (cfg.ema > 0) {
+    ema = std::make_unique<nn::Ema>(params, cfg.ema, /*warmup=*/true);
+    ts.ema(*ema);
+  }
   if (resume && std::filesystem::exists(paths.state)) ts.load(paths.state);
   const int64_t end = cfg.end_step();
   const auto sched = cfg.lr_schedule();
@@ -74,12 +83,14 @@ GenTrainResult train_generator(FlowGenerator& gen, const ProgramDataset& data, c
       loss = nn::flow_matching_loss(v, ag::Variable(fsmp.x0), ag::Variable(b.m), mo);  // Eq 15
     }
     const auto [l, gn] = nn::backward_clip_step(loss, params, opt);
+    if (ema) ema->update();
     log.write({{"step", ts.step + 1}, {"loss", l}, {"lr", opt.lr()}, {"grad_norm", gn}});
     bar.update(ts.step + 1, {{"loss", l}});
     if (++ts.step % cfg.save_every == 0 || ts.step == end) ts.save(paths.state);
   }
   bar.finish();
   gen.eval();
+  if (ema) ema->apply();  // the averaged weights stay in the generator (the training values are in the state)
   nn::write_loss_plot_if_logged(paths.log, paths.svg,
                                 diffusion ? "diffusion generator: v-prediction loss (train split programs)"
                                           : "flow generator: Eq 15 loss (train split programs)");

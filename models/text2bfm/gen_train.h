@@ -9,8 +9,11 @@
 // (nn::sample_diffusion_pair), x_t = alpha(t) m + sigma(t) ε with the cosine (or linear) VP schedule, the network
 // gets r = 1 − t and the loss is the v-prediction MSE mean over real frames of (v_η − (alpha ε − sigma m))²
 // (nn::diffusion_v_loss); sample with diffusion_sampler.h.
+// ema > 0: an exponential moving average of the weights (nn::Ema, decay ema with the (1 + t) / (10 + t) warm-up)
+// is updated after every step and saved in the train state; on return the generator holds the AVERAGED weights
+// (what `t2m train gen --ema` writes as its checkpoint), the training values are in the state file.
 // Resumable: nn::TrainState at paths.state every save_every steps and at the end (parameters, AdamW moments,
-// the three generators, step); resume = bit-identical continuation for the same thread count. stop_at > 0 ends
+// EMA shadow when ema > 0, the three generators, step); resume = bit-identical continuation for the same thread count. stop_at > 0 ends
 // the run (resumably) after that many steps in total. JSONL log (step, loss, lr, grad_norm) and an SVG plot.
 // Errors (t2m::Error): bad config values ("gen train: ..."), and those of TrainState::load on a mismatched state.
 #pragma once
@@ -27,8 +30,9 @@ namespace t2m::text2bfm {
 struct GenTrainConfig : nn::TrainLoopConfig {
   std::string objective = "flow";   // "flow" (Eq 15) | "diffusion" (v-prediction)
   std::string schedule = "cosine";  // diffusion only
+  double ema = 0;                   // EMA decay of the weights, in [0, 1); 0: none (the final weights are kept)
   GenTrainConfig() { steps = 3000, batch = 32, lr = 3e-4, warmup = 100, save_every = 250; }
-  nlohmann::json to_json() const;   // objective/schedule only when not flow (flow states resume as before)
+  nlohmann::json to_json() const;   // objective/schedule only when not flow, ema only when > 0 (older states resume)
   void validate() const;
 };
 
