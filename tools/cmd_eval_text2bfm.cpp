@@ -131,6 +131,7 @@ void run(Args a) {
   } else {
     auto models = t2b::load_text2bfm(paths);
     if (a.opt.gen.steps == 0) a.opt.gen.steps = models.gen.objective == "diffusion" ? 50 : 16;
+    a.opt.gen.validate();  // bad --cfg / --steps / --candidates before any work
     for (const auto& w : models.warnings) std::fprintf(stderr, "eval text2bfm: warning: %s\n", w.c_str());
     std::vector<t2b::EvalItem> items;
     for (int i : pick)
@@ -152,11 +153,13 @@ void run(Args a) {
              {"fell", s.fell}, {"mean_first_fall_s", s.mean_first_fall_s},
              {"checkpoints", {{"text", paths.text}, {"vbb", paths.vbb}, {"gen", paths.gen}, {"bfm", paths.bfm}}},
              {"objective", models.gen.objective}, {"cfg", a.opt.gen.cfg}, {"steps", a.opt.gen.steps}, {"seed", a.opt.seed},
-             {"mm_prompts", a.opt.mm_prompts}, {"samples", a.opt.samples}};
+             {"candidates", a.opt.gen.candidates}, {"mm_prompts", a.opt.mm_prompts}, {"samples", a.opt.samples}};
     char cfg[32];
     std::snprintf(cfg, sizeof cfg, "%g", a.opt.gen.cfg);
     what = "Text2BFM generations (" + paths.gen + ", " + models.gen.objective + ", cfg " + cfg + ", " +
-           std::to_string(a.opt.gen.steps) + " steps) for the captions of the " + a.split + " split";
+           std::to_string(a.opt.gen.steps) + " steps" +
+           (a.opt.gen.candidates > 1 ? ", longest upright of " + std::to_string(a.opt.gen.candidates) + " candidates"
+                                     : "") + ") for the captions of the " + a.split + " split";
     std::printf("generated %lld motions (%lld control steps) in %.1f s wall, %.1f s CPU, %d thread(s); %lld fell "
                 "(mean first fall %.2f s)\n", (long long)s.generations, (long long)s.control_steps, s.wall_s,
                 s.cpu_s, threads, (long long)s.fell, s.mean_first_fall_s);
@@ -196,6 +199,8 @@ void add_eval_text2bfm(CLI::App& app) {
   c->add_option("--steps", a->opt.gen.steps, "sampler steps (0: 16 Euler steps for a flow generator, 50 DDIM "
                  "steps for a diffusion one)")->capture_default_str();
   c->add_option("--seed", a->opt.seed, "seed of the generations (per clip and sample)")->capture_default_str();
+  c->add_option("--candidates", a->opt.gen.candidates, "programs tried per generation; the rollout upright longest "
+                "is kept (as `t2m generate --candidates`)")->capture_default_str();
   c->add_option("--mm-prompts", a->opt.mm_prompts, "prompts with extra samples (MultiModality)")
       ->capture_default_str();
   c->add_option("--samples", a->opt.samples, "samples per MultiModality prompt")->capture_default_str();

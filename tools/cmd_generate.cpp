@@ -47,6 +47,8 @@ void add_options(CLI::App* c, GenerateArgs& a) {
       ->capture_default_str();
   c->add_option("--overlap", a.opt.overlap, "compose: latent steps blended per clause boundary (Eq 19)")
       ->capture_default_str();
+  c->add_option("--candidates", a.opt.candidates, "programs tried (seeds SEED .. SEED + K - 1, each rolled out); the "
+                "rollout upright longest is kept (ours, not in the paper)")->capture_default_str();
   c->add_flag("--no-render", a.no_render, "skip render.mp4");
   c->add_flag("--overwrite", a.overwrite, "replace an existing output directory");
   c->add_option("--threads", a.threads, "threads (0 = default)");
@@ -64,6 +66,7 @@ double process_cpu_seconds() {
 void run_kinematic(const GenerateArgs& a) {
   const auto& model = t2m::cli::find_kinematic_model(a.model);
   if (a.opt.compose) throw Error("generate: --compose applies to --model text2bfm only");
+  if (a.opt.candidates != 1) throw Error("generate: --candidates applies to --model text2bfm only");
   t2m::cli::KinematicRequest r;
   r.prompt = a.prompt;
   r.checkpoints = a.checkpoints;

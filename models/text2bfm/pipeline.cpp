@@ -2,8 +2,10 @@
 #include "models/text2bfm/pipeline.h"
 
 #include <chrono>
+#include <cmath>
 #include <ctime>
 #include <filesystem>
+#include <limits>
 
 #include "autograd/no_grad.h"
 #include "models/bfm/policy_checkpoint.h"
@@ -25,6 +27,7 @@ namespace {
 namespace fs = std::filesystem;
 constexpr double kFallHeight = 0.5;  // m, sim/pd_tracker.h's fall_height
 constexpr double kMaxLengthS = 120.0;
+constexpr int64_t kMaxCandidates = 64;
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -92,6 +95,9 @@ void GenerateOptions::validate() const {
   if (steps < 1) throw Error("generate: --steps must be >= 1, got " + std::to_string(steps));
   if (!std::isfinite(cfg)) throw Error("generate: --cfg must be finite");
   if (overlap < 0) throw Error("generate: --overlap must be >= 0, got " + std::to_string(overlap));
+  if (candidates < 1 || candidates > kMaxCandidates)
+    throw Error("generate: --candidates must be in [1, " + std::to_string(kMaxCandidates) + "], got " +
+                std::to_string(candidates));
 }
 
 TextTokens encode_prompt_texts(const Text2BfmModels& m, const std::vector<std::string>& texts) {
@@ -107,8 +113,11 @@ TextTokens encode_prompt_texts(const Text2BfmModels& m, const std::vector<std::s
   return {f.tokens.data().contiguous(), e.mask};
 }
 
-Generation generate_motion(Text2BfmModels& m, const std::string& prompt, const GenerateOptions& opt) {
-  opt.validate();
+namespace {
+
+// One run of the chain with m(0) from Generator(seed).
+Generation generate_candidate(Text2BfmModels& m, const std::string& prompt, const GenerateOptions& opt,
+                              uint64_t seed) {
   using clock = std::chrono::steady_clock;
   Generation g;
   g.prompt = prompt;
@@ -135,7 +144,7 @@ Generation generate_motion(Text2BfmModels& m, const std::string& prompt, const G
   // Stage "sample": m(0) ~ N(0, I), Eq 16 with CFG, then undo the standardisation.
   t0 = clock::now();
   c0 = process_cpu_s();
-  Generator rng(opt.seed);
+  Generator rng(seed);
   Tensor prog;
   if (m.gen.objective == "diffusion") {  // Table 5's variant: v-prediction network, DDIM
     DiffusionSamplerOptions so;
@@ -219,7 +228,40 @@ Generation generate_motion(Text2BfmModels& m, const std::string& prompt, const G
   }
   g.times.rollout = seconds_since(t0);
   g.cpu.rollout = process_cpu_s() - c0;
+  g.candidate_upright_s = {g.first_fall_s < 0 ? double(steps) * sim::kControlDt : g.first_fall_s};
   return g;
+}
+
+void add_times(StageTimes& sum, const StageTimes& t) {
+  sum.text += t.text, sum.sample += t.sample, sum.decode += t.decode, sum.rollout += t.rollout;
+}
+
+}  // namespace
+
+Generation generate_motion(Text2BfmModels& m, const std::string& prompt, const GenerateOptions& opt) {
+  opt.validate();
+  Generation best = generate_candidate(m, prompt, opt, opt.seed);
+  // Candidates: the longest upright rollout (no fall beats any fall), then fewer falls, then the lower seed.
+  auto better = [](const Generation& a, const Generation& b) {
+    constexpr double kUp = std::numeric_limits<double>::infinity();
+    const double ua = a.first_fall_s < 0 ? kUp : a.first_fall_s, ub = b.first_fall_s < 0 ? kUp : b.first_fall_s;
+    return ua > ub || (ua == ub && a.falls < b.falls);
+  };
+  StageTimes times = best.times, cpu = best.cpu;
+  std::vector<double> upright = best.candidate_upright_s;
+  for (int64_t k = 1; k < opt.candidates; ++k) {
+    Generation g = generate_candidate(m, prompt, opt, opt.seed + uint64_t(k));
+    add_times(times, g.times);
+    add_times(cpu, g.cpu);
+    upright.push_back(g.candidate_upright_s[0]);
+    if (better(g, best)) {
+      best = std::move(g);
+      best.candidate = k;
+    }
+  }
+  best.times = times, best.cpu = cpu;
+  best.candidate_upright_s = std::move(upright);
+  return best;
 }
 
 }  // namespace t2m::text2bfm

@@ -14,6 +14,10 @@
 // The rollout records T + 1 states (s_0 = the standing start). A fall is the root (hips) dropping below 0.5 m
 // (sim/pd_tracker.h's fall_height) from above it; `falls` counts such events.
 // Randomness: m(0) from Generator(seed) only: a seed, prompt, options and thread count fix every output bit.
+// Candidates (ours, not in the paper): with candidates = K > 1 the whole chain runs K times, with seeds seed, seed + 1,
+// ..., seed + K - 1, and the rollout that stays upright longest is kept (no fall beats any fall; then fewer falls;
+// then the lower seed): physics as the critic of the sampled programs, at K times the sample/decode/rollout cost
+// (the stage times are summed over the candidates). K = 1 is the plain chain.
 //
 // Outputs (write_generation): into a fresh temporary directory next to DIR, renamed to DIR at the very end, so
 // DIR either holds all of them or does not exist (an existing DIR is refused unless overwrite, which swaps it
@@ -23,10 +27,12 @@
 //   states.bin    nn::Checkpoint (CRC-checked) meta {"format": "t2m-states-1", "fps": 30, "prompt": ...},
 //                 tensors "obs" (T+1, obs_dim) f32, "qpos" (T+1, nq) f64, "qvel" (T+1, nv) f64, "z" (T, d) f32
 //   metrics.json  prompt, clauses, options, duration_s, frames, falls, fell, first_fall_s, min_root_height_m,
+//                 candidate (index kept), candidate_seed, candidate_upright_s (per candidate: time to the first fall,
+//                 the duration when none),
 //                 timing_s per stage (text, sample, decode, rollout, export, render, total; wall), cpu_s per
 //                 generation stage (process CPU time, all threads), threads, warnings.
 // Errors (t2m::Error): an empty prompt; a prompt (or, with compose, a clause) whose words are all unknown to the
-// tokenizer; length <= 0 or > 120 s; steps < 1; non-finite cfg; overlap < 0; a missing checkpoint (names the file
+// tokenizer; length <= 0 or > 120 s; steps < 1; non-finite cfg; overlap < 0; candidates outside [1, 64]; a missing checkpoint (names the file
 // and the command that makes it); mismatched model widths; an existing or unwritable output directory.
 #pragma once
 #include <cstdint>
@@ -68,6 +74,7 @@ struct GenerateOptions {
   int64_t steps = 16;      // Euler steps
   bool compose = false;    // one program per clause (Eq 18-19)
   int64_t overlap = 4;     // O, latent steps blended per clause boundary
+  int64_t candidates = 1;  // K: programs tried (seeds seed .. seed + K - 1); the longest upright rollout is kept
   void validate() const;
 };
 
@@ -87,6 +94,8 @@ struct Generation {
   double min_root_height = 0;
   StageTimes times;                   // wall seconds per stage
   StageTimes cpu;                     // process CPU seconds per stage (all threads)
+  int64_t candidate = 0;              // which candidate was kept (its seed: opt.seed + candidate)
+  std::vector<double> candidate_upright_s;  // per candidate: first fall time, or the duration without a fall
 };
 
 // The tokenizer + frozen text encoder: token features (B, L, D) and mask (B, L) of the texts (each must have a
@@ -96,7 +105,7 @@ struct TextTokens {
 };
 TextTokens encode_prompt_texts(const Text2BfmModels& m, const std::vector<std::string>& texts);
 
-// The whole chain up to the simulated states (no files written).
+// The whole chain up to the simulated states (no files written); with opt.candidates > 1, the kept candidate.
 Generation generate_motion(Text2BfmModels& m, const std::string& prompt, const GenerateOptions& opt);
 
 struct WriteOptions {
