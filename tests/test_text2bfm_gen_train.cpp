@@ -49,6 +49,19 @@ ProgramDataset tiny_data(const Vbb& vbb) {
   return make_program_dataset(progs, {{0, 1}, {2, 3}, {4, 5}}, tok, mask, 3);
 }
 
+// tiny_data through a fresh tiny VBB (seed 1), the training tests' data.
+ProgramDataset tiny_data_of_a_tiny_vbb() {
+  Generator g(1);
+  Vbb vbb(tiny_vbb(), g);
+  vbb.eval();
+  return tiny_data(vbb);
+}
+
+// A run's state, log and plot files in dir, named n.ckpt / n.jsonl / n.svg.
+GenTrainPaths run_paths(const fs::path& dir, const std::string& n) {
+  return GenTrainPaths{(dir / (n + ".ckpt")).string(), (dir / (n + ".jsonl")).string(), (dir / (n + ".svg")).string()};
+}
+
 }  // namespace
 
 TEST(ProgramDataset, PosteriorMeansStandardisedAndBatches) {
@@ -92,16 +105,11 @@ TEST(ProgramDataset, PosteriorMeansStandardisedAndBatches) {
 }
 
 TEST(GenTrain, LossFallsAndResumeIsBitIdentical) {
-  Generator g(1);
-  Vbb vbb(tiny_vbb(), g);
-  vbb.eval();
-  const ProgramDataset d = tiny_data(vbb);
+  const ProgramDataset d = tiny_data_of_a_tiny_vbb();
   GenTrainConfig cfg;
   cfg.steps = 200, cfg.batch = 16, cfg.lr = 1e-2, cfg.warmup = 5, cfg.save_every = 10;
   const fs::path dir = fresh_dir("resume");
-  auto paths = [&](const std::string& n) {
-    return GenTrainPaths{(dir / (n + ".ckpt")).string(), (dir / (n + ".jsonl")).string(), (dir / (n + ".svg")).string()};
-  };
+  auto paths = [&](const std::string& n) { return run_paths(dir, n); };
   Generator ga(7), gb(7);
   auto straight_p = std::make_shared<FlowGenerator>(tiny_gen(), ga);
   FlowGenerator& straight = *straight_p;
@@ -151,16 +159,11 @@ TEST(GenTrain, LossFallsAndResumeIsBitIdentical) {
 // itself is unchanged (the state file holds the same training values as the run without EMA); resuming an EMA run
 // gives the same averaged weights as an uninterrupted one.
 TEST(GenTrain, EmaHoldsTheAveragedWeightsAndResumes) {
-  Generator g(1);
-  Vbb vbb(tiny_vbb(), g);
-  vbb.eval();
-  const ProgramDataset d = tiny_data(vbb);
+  const ProgramDataset d = tiny_data_of_a_tiny_vbb();
   GenTrainConfig cfg;
   cfg.steps = 12, cfg.batch = 8, cfg.lr = 1e-2, cfg.warmup = 2, cfg.save_every = 100;
   const fs::path dir = fresh_dir("ema");
-  auto paths = [&](const std::string& n) {
-    return GenTrainPaths{(dir / (n + ".ckpt")).string(), (dir / (n + ".jsonl")).string(), (dir / (n + ".svg")).string()};
-  };
+  auto paths = [&](const std::string& n) { return run_paths(dir, n); };
   // Without EMA, one step per chunk: the weights after every step, averaged by hand in double.
   Generator g0(7);
   FlowGenerator plain(tiny_gen(), g0);
