@@ -13,8 +13,9 @@
 // is updated after every step and saved in the train state; on return the generator holds the AVERAGED weights
 // (what `t2m train gen --ema` writes as its checkpoint), the training values are in the state file.
 // Resumable: nn::TrainState at paths.state every save_every steps and at the end (parameters, AdamW moments,
-// EMA shadow when ema > 0, the three generators, step); resume = bit-identical continuation for the same thread count. stop_at > 0 ends
-// the run (resumably) after that many steps in total. JSONL log (step, loss, lr, grad_norm) and an SVG plot.
+// EMA shadow when ema > 0, the three generators, step); resume = bit-identical continuation for the same thread
+// count. stop_at > 0 ends the run (resumably) after that many steps in total. JSONL log (step, loss, lr,
+// grad_norm) and an SVG plot.
 // Errors (t2m::Error): bad config values ("gen train: ..."), and those of TrainState::load on a mismatched state.
 #pragma once
 #include <cstdint>

@@ -115,26 +115,11 @@ TextTokens encode_prompt_texts(const Text2BfmModels& m, const std::vector<std::s
 
 namespace {
 
-// One run of the chain with m(0) from Generator(seed).
-Generation generate_candidate(Text2BfmModels& m, const std::string& prompt, const GenerateOptions& opt,
-                              uint64_t seed) {
+// Stages "sample" to "rollout" of one candidate into g (prompt, clauses, options and the text stage already set),
+// with m(0) from Generator(seed).
+void sample_and_roll_out(Text2BfmModels& m, const TextTokens& tt, uint64_t seed, Generation& g) {
   using clock = std::chrono::steady_clock;
-  Generation g;
-  g.prompt = prompt;
-  g.opt = opt;
-  if (text::split_words(prompt).empty()) throw Error("generate: the prompt is empty");
-  g.clauses = opt.compose ? split_clauses(prompt) : std::vector<std::string>{text::normalize(prompt)};
-  if (g.clauses.empty()) throw Error("generate: the prompt has no clause with words");
-  if (!opt.compose && m.text.tokenizer.all_unknown(prompt))
-    throw Error("generate: no word of \"" + prompt + "\" is in the text encoder's vocabulary");
-
-  // Stage "text": tokenizer + frozen text encoder.
-  auto t0 = clock::now();
-  double c0 = process_cpu_s();
-  const TextTokens tt = encode_prompt_texts(m, g.clauses);
-  g.times.text = seconds_since(t0);
-  g.cpu.text = process_cpu_s() - c0;
-
+  const GenerateOptions& opt = g.opt;
   // Lengths (see the header).
   const int64_t T = std::max<int64_t>(1, std::llround(opt.length_s / sim::kControlDt));
   const int64_t c = m.vbb->config().compression(), N = (int64_t)g.clauses.size();
@@ -142,8 +127,8 @@ Generation generate_candidate(Text2BfmModels& m, const std::string& prompt, cons
   const int64_t Tm = std::max<int64_t>(1, (per + c - 1) / c);
 
   // Stage "sample": m(0) ~ N(0, I), Eq 16 with CFG, then undo the standardisation.
-  t0 = clock::now();
-  c0 = process_cpu_s();
+  auto t0 = clock::now();
+  double c0 = process_cpu_s();
   Generator rng(seed);
   Tensor prog;
   if (m.gen.objective == "diffusion") {  // Table 5's variant: v-prediction network, DDIM
@@ -228,33 +213,49 @@ Generation generate_candidate(Text2BfmModels& m, const std::string& prompt, cons
   }
   g.times.rollout = seconds_since(t0);
   g.cpu.rollout = process_cpu_s() - c0;
-  g.candidate_upright_s = {g.first_fall_s < 0 ? double(steps) * sim::kControlDt : g.first_fall_s};
-  return g;
 }
 
-void add_times(StageTimes& sum, const StageTimes& t) {
-  sum.text += t.text, sum.sample += t.sample, sum.decode += t.decode, sum.rollout += t.rollout;
+// Time to the first fall, +inf without one: candidates are ranked by it.
+double upright_rank(const Generation& g) {
+  return g.first_fall_s < 0 ? std::numeric_limits<double>::infinity() : g.first_fall_s;
+}
+
+void add_generation_times(StageTimes& sum, const StageTimes& t) {
+  sum.sample += t.sample, sum.decode += t.decode, sum.rollout += t.rollout;
 }
 
 }  // namespace
 
 Generation generate_motion(Text2BfmModels& m, const std::string& prompt, const GenerateOptions& opt) {
   opt.validate();
-  Generation best = generate_candidate(m, prompt, opt, opt.seed);
+  Generation head;
+  head.prompt = prompt;
+  head.opt = opt;
+  if (text::split_words(prompt).empty()) throw Error("generate: the prompt is empty");
+  head.clauses = opt.compose ? split_clauses(prompt) : std::vector<std::string>{text::normalize(prompt)};
+  if (head.clauses.empty()) throw Error("generate: the prompt has no clause with words");
+  if (!opt.compose && m.text.tokenizer.all_unknown(prompt))
+    throw Error("generate: no word of \"" + prompt + "\" is in the text encoder's vocabulary");
+
+  // Stage "text": tokenizer + frozen text encoder (once for all candidates).
+  const auto t0 = std::chrono::steady_clock::now();
+  const double c0 = process_cpu_s();
+  const TextTokens tt = encode_prompt_texts(m, head.clauses);
+  head.times.text = seconds_since(t0);
+  head.cpu.text = process_cpu_s() - c0;
+
   // Candidates: the longest upright rollout (no fall beats any fall), then fewer falls, then the lower seed.
-  auto better = [](const Generation& a, const Generation& b) {
-    constexpr double kUp = std::numeric_limits<double>::infinity();
-    const double ua = a.first_fall_s < 0 ? kUp : a.first_fall_s, ub = b.first_fall_s < 0 ? kUp : b.first_fall_s;
-    return ua > ub || (ua == ub && a.falls < b.falls);
-  };
-  StageTimes times = best.times, cpu = best.cpu;
-  std::vector<double> upright = best.candidate_upright_s;
-  for (int64_t k = 1; k < opt.candidates; ++k) {
-    Generation g = generate_candidate(m, prompt, opt, opt.seed + uint64_t(k));
-    add_times(times, g.times);
-    add_times(cpu, g.cpu);
-    upright.push_back(g.candidate_upright_s[0]);
-    if (better(g, best)) {
+  Generation best;
+  StageTimes times = head.times, cpu = head.cpu;
+  std::vector<double> upright;
+  for (int64_t k = 0; k < opt.candidates; ++k) {
+    Generation g = head;
+    sample_and_roll_out(m, tt, opt.seed + uint64_t(k), g);
+    add_generation_times(times, g.times);
+    add_generation_times(cpu, g.cpu);
+    upright.push_back(g.first_fall_s < 0 ? double(g.traj.frames - 1) * sim::kControlDt : g.first_fall_s);
+    const double uk = upright_rank(g), ub = upright_rank(best);
+    if (k == 0 || uk > ub || (uk == ub && g.falls < best.falls)) {
       best = std::move(g);
       best.candidate = k;
     }

@@ -14,10 +14,10 @@
 // The rollout records T + 1 states (s_0 = the standing start). A fall is the root (hips) dropping below 0.5 m
 // (sim/pd_tracker.h's fall_height) from above it; `falls` counts such events.
 // Randomness: m(0) from Generator(seed) only: a seed, prompt, options and thread count fix every output bit.
-// Candidates (ours, not in the paper): with candidates = K > 1 the whole chain runs K times, with seeds seed, seed + 1,
-// ..., seed + K - 1, and the rollout that stays upright longest is kept (no fall beats any fall; then fewer falls;
-// then the lower seed): physics as the critic of the sampled programs, at K times the sample/decode/rollout cost
-// (the stage times are summed over the candidates). K = 1 is the plain chain.
+// Candidates (ours, not in the paper): with candidates = K > 1 the chain after the text stage runs K times, with
+// seeds seed, seed + 1, ..., seed + K - 1, and the rollout that stays upright longest is kept (no fall beats any
+// fall; then fewer falls; then the lower seed): physics as the critic of the sampled programs, at K times the
+// sample/decode/rollout cost (those stage times are summed over the candidates). K = 1 is the plain chain.
 //
 // Outputs (write_generation): into a fresh temporary directory next to DIR, renamed to DIR at the very end, so
 // DIR either holds all of them or does not exist (an existing DIR is refused unless overwrite, which swaps it
@@ -32,8 +32,9 @@
 //                 timing_s per stage (text, sample, decode, rollout, export, render, total; wall), cpu_s per
 //                 generation stage (process CPU time, all threads), threads, warnings.
 // Errors (t2m::Error): an empty prompt; a prompt (or, with compose, a clause) whose words are all unknown to the
-// tokenizer; length <= 0 or > 120 s; steps < 1; non-finite cfg; overlap < 0; candidates outside [1, 64]; a missing checkpoint (names the file
-// and the command that makes it); mismatched model widths; an existing or unwritable output directory.
+// tokenizer; length <= 0 or > 120 s; steps < 1; non-finite cfg; overlap < 0; candidates outside [1, 64]; a missing
+// checkpoint (names the file and the command that makes it); mismatched model widths; an existing or unwritable
+// output directory.
 #pragma once
 #include <cstdint>
 #include <memory>
