@@ -46,6 +46,7 @@ void run(Args a) {
   if (!a.gen.empty()) paths.gen = a.gen;
   auto models = t2b::load_text2bfm(paths);
   if (a.opt.gen.steps == 0) a.opt.gen.steps = models.gen.objective == "diffusion" ? 50 : 16;
+  a.opt.gen.validate();  // bad --cfg / --steps / --overlap / --candidates before any work
   a.opt.frames_per_clause = std::max<int64_t>(1, std::llround(a.seconds_per_clause * 30));
   a.opt.jobs = threads;
   if (!fs::exists(a.evaluator)) throw Error("eval compose: evaluator checkpoint '" + a.evaluator + "' not found");
@@ -57,8 +58,9 @@ void run(Args a) {
 
   json rows = json::array();
   std::printf("Compositional prompts from the %s split (Bandai-Namco, our captions), %lld per N, %.1f s per clause, "
-              "%s, cfg %g, %lld steps, overlap %lld\n", a.split.c_str(), (long long)a.prompts, a.seconds_per_clause,
-              models.gen.objective.c_str(), a.opt.gen.cfg, (long long)a.opt.gen.steps, (long long)a.opt.gen.overlap);
+              "%s, cfg %g, %lld steps, overlap %lld, %lld candidate(s)\n", a.split.c_str(), (long long)a.prompts,
+              a.seconds_per_clause, models.gen.objective.c_str(), a.opt.gen.cfg, (long long)a.opt.gen.steps,
+              (long long)a.opt.gen.overlap, (long long)a.opt.gen.candidates);
   std::printf("| Method | N | Order Acc. | MM-Dist | Transition | fell | wall s | CPU s |\n|---|---|---|---|---|---|---|---|\n");
   for (int64_t N : a.ns) {
     const auto prompts = t2b::make_compose_prompts(clips, N, a.prompts, a.opt.seed);
@@ -88,7 +90,7 @@ void run(Args a) {
                   {"checkpoints", {{"gen", paths.gen}, {"vbb", paths.vbb}, {"bfm", paths.bfm}}},
                   {"evaluator", a.evaluator}, {"seconds_per_clause", a.seconds_per_clause},
                   {"cfg", a.opt.gen.cfg}, {"steps", a.opt.gen.steps}, {"overlap", a.opt.gen.overlap},
-                  {"seed", a.opt.seed}, {"threads", threads}, {"rows", rows}};
+                  {"candidates", a.opt.gen.candidates}, {"seed", a.opt.seed}, {"threads", threads}, {"rows", rows}};
   t2m::nn::write_file_atomic(out, j.dump(1) + "\n");
   std::printf("report: %s\n", out.c_str());
 }
@@ -105,6 +107,8 @@ void add_eval_compose(CLI::App& app) {
   c->add_option("--cfg", a->opt.gen.cfg, "classifier-free guidance weight")->capture_default_str();
   c->add_option("--steps", a->opt.gen.steps, "sampler steps (0: 16 flow / 50 diffusion)")->capture_default_str();
   c->add_option("--seed", a->opt.seed, "seed of the prompts and generations")->capture_default_str();
+  c->add_option("--candidates", a->opt.gen.candidates, "programs tried per generation; the rollout upright longest "
+                "is kept (as `t2m generate --candidates`)")->capture_default_str();
   c->add_option("--split", a->split, "split whose clips make the prompts")->capture_default_str();
   c->add_option("--checkpoints", a->checkpoints, "directory with the four .t2mckpt files")->capture_default_str();
   c->add_option("--gen", a->gen, "generator checkpoint (default CHECKPOINTS/gen_small.t2mckpt)");
