@@ -303,6 +303,17 @@ TEST(BfmTrackEval, UsesThePdScorerOnEveryFrame) {
   EXPECT_NE(track_bfm(agent, humanoid(), r, {}, 0, negate)[1].simulated.qpos, bfm[1].simulated.qpos);
   const TrackLatentMap shorter = [](const Tensor& z) { return z.narrow(0, 0, 1).contiguous(); };
   EXPECT_THROW(track_bfm(agent, humanoid(), r, {}, 0, shorter), Error);
+  // A standing start: frame 0 is the humanoid's qpos0 at rest, not the clip's first state; the rollout differs.
+  const auto stand = track_bfm(agent, humanoid(), r, {}, 0, {}, TrackStart::standing);
+  const int nq = humanoid()->model()->nq, nv = humanoid()->model()->nv;
+  for (int c = 0; c < 2; ++c) {
+    ASSERT_EQ(stand[c].simulated.frames, bfm[c].simulated.frames);
+    for (int k = 0; k < nq; ++k) EXPECT_EQ(stand[c].simulated.qpos[k], humanoid()->model()->qpos0[k]) << k;
+    for (int k = 0; k < nv; ++k) EXPECT_EQ(stand[c].simulated.qvel[k], 0.0) << k;
+  }
+  EXPECT_NE(stand[1].simulated.qpos, bfm[1].simulated.qpos);
+  EXPECT_EQ(track_bfm(agent, humanoid(), r, {}, 0, {}, TrackStart::reference)[1].simulated.qpos,
+            bfm[1].simulated.qpos);
 }
 
 TEST(BfmTrackEval, HoldableStartClipsKeepsStandingPosesOnly) {

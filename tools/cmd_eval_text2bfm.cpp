@@ -52,7 +52,7 @@ struct Args {
   std::string evaluator = "models/checkpoints/evaluator.t2mckpt", label;
   t2b::EvalGenOptions opt = [] { t2b::EvalGenOptions o; o.gen.steps = 0; return o; }();
   int max_clips = 0;
-  bool tracking = false, through_vbb = false;
+  bool tracking = false, through_vbb = false, standing_start = false;
   t2m::eval::EvalProtocol protocol;
 };
 
@@ -107,7 +107,8 @@ void run(Args a) {
     }
     t2m::bfm::TrackLatentMap through;
     if (vbb) through = [&](const t2m::Tensor& z) { return t2b::reconstruct_clip_latents(*vbb, z); };
-    const auto res = t2m::bfm::track_bfm(*agent, h, sel, {}, 0, through);
+    const auto start = a.standing_start ? t2m::bfm::TrackStart::standing : t2m::bfm::TrackStart::reference;
+    const auto res = t2m::bfm::track_bfm(*agent, h, sel, {}, 0, through, start);
     int fell = 0;
     for (int c = 0; c < sel.clips(); ++c) {
       const auto* clip = by_name.at(sel.names[c]);
@@ -122,8 +123,9 @@ void run(Args a) {
       entries.push_back(std::move(e));
     }
     stats = {{"clips", sel.clips()}, {"fell", fell}, {"bfm", bfm_p}};
-    what = "BFM tracking rollouts (Eq 2 latents of the real clips, reference start) of the " + a.split +
-           " split, " + bfm_p;
+    what = std::string("BFM tracking rollouts (Eq 2 latents of the real clips, ") +
+           (a.standing_start ? "standing start" : "reference start") + ") of the " + a.split + " split, " + bfm_p;
+    if (a.standing_start) stats["start"] = "standing";
     if (vbb) {
       stats["through_vbb"] = vbb_p;
       what += ", latents through the VBB " + vbb_p;
@@ -211,6 +213,10 @@ void add_eval_text2bfm(CLI::App& app) {
   c->add_flag("--tracking", a->tracking, "score the BFM's tracking rollouts of the real clips instead");
   c->add_flag("--through-vbb", a->through_vbb,
               "with --tracking: the real clips' latents go through the VBB first (encoder mean, decoder, Proj)")
+      ->needs("--tracking");
+  c->add_flag("--standing-start", a->standing_start,
+              "with --tracking: the body starts standing at rest (qpos0), as generations do, not in the clip's "
+              "first state")
       ->needs("--tracking");
   c->add_option("--data", a->data.data_dir, "motion data directory");
   c->add_option("--cache", a->data.cache_dir, "cache directory");

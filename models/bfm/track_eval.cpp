@@ -30,7 +30,8 @@ Tensor clip_states(const RefMotions& refs, int c) {
 }
 
 std::vector<sim::PdResult> track_bfm(FbAgent& agent, std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs,
-                                     const sim::PdOptions& opt, int window, const TrackLatentMap& map) {
+                                     const sim::PdOptions& opt, int window, const TrackLatentMap& map,
+                                     TrackStart start) {
   check_tracking_refs(&agent, *h, refs);
   ag::NoGradGuard ng;
   const int N = refs.clips(), D = refs.obs_dim, A = h->model()->nu, d = agent.config().z_dim;
@@ -53,9 +54,13 @@ std::vector<sim::PdResult> track_bfm(FbAgent& agent, std::shared_ptr<const sim::
   std::vector<sim::QposTrajectory> traj(N);
   for (int c = 0; c < N; ++c) traj[c] = refs.trajectory(c);
   std::vector<float> obs((size_t)N * D);
+  const std::vector<double> rest((size_t)h->model()->nv, 0.0);
   for (int c = 0; c < N; ++c) {
     envs.push_back(std::make_unique<sim::Env>(h));
-    envs[c]->reset(traj[c].qpos.data(), traj[c].qvel.data(), obs.data() + (size_t)c * D);
+    if (start == TrackStart::standing)
+      envs[c]->reset(h->model()->qpos0, rest.data(), obs.data() + (size_t)c * D);
+    else
+      envs[c]->reset(traj[c].qpos.data(), traj[c].qvel.data(), obs.data() + (size_t)c * D);
     score.emplace_back(*h, traj[c], opt);
     score[c].add_frame(*envs[c]);
   }

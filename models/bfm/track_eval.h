@@ -35,10 +35,15 @@ void check_tracking_refs(const FbAgent* agent, const sim::Humanoid& h, const Ref
 
 // A clip's Eq 2 latents [T-1, d] -> the latents tracked instead, same shape (e.g. a bottleneck's reconstruction).
 using TrackLatentMap = std::function<Tensor(const Tensor& z)>;
+// Where the body starts: in the clip's reference state (qpos[0], qvel[0], the tracking protocol), or standing in
+// the humanoid's qpos0 at rest, where text-to-motion generation starts (the scorer still compares with the
+// reference from frame 0, so success and MPJPE then include the distance to the clip's start).
+enum class TrackStart { reference, standing };
 // window: L of Eq 2 for the latents (0 = the agent's track_window); map (optional): applied to every clip's latents
 // before the rollout (Error when it changes their shape).
 std::vector<sim::PdResult> track_bfm(FbAgent& agent, std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs,
-                                     const sim::PdOptions& opt = {}, int window = 0, const TrackLatentMap& map = {});
+                                     const sim::PdOptions& opt = {}, int window = 0, const TrackLatentMap& map = {},
+                                     TrackStart start = TrackStart::reference);
 std::vector<sim::PdResult> track_pd_all(std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs,
                                         const sim::PdOptions& opt = {});
 std::vector<sim::PdResult> track_balance_all(std::shared_ptr<const sim::Humanoid> h, const RefMotions& refs,
