@@ -110,6 +110,29 @@ TEST_F(EvalGeneration, LayoutGroupsAndJobIndependence) {
   fs::remove_all(d.parent_path());
 }
 
+// item_fell[i] says whether item i's main generation (sample 0, seed sample_seed(seed, i, 0)) fell: the same
+// as generating that item alone; long items (4 s) fall with these untrained models, the short one does not.
+TEST_F(EvalGeneration, ItemFellIsTheMainGenerationsFall) {
+  const std::vector<text2bfm::EvalItem> its{{"a person jumps", 120}, {"someone waves with the right hand", 6},
+                                            {"a person runs in a circle", 120}};
+  auto o = options(2);
+  o.mm_prompts = 1;  // item 0 gets 3 samples; only sample 0 counts
+  const auto r = text2bfm::generate_eval_motions(*models_, its, o);
+  ASSERT_EQ(r.item_fell.size(), its.size());
+  int64_t fell = 0;
+  for (size_t i = 0; i < its.size(); ++i) {
+    auto go = o.gen;
+    go.seed = text2bfm::sample_seed(o.seed, (int64_t)i, 0);
+    go.length_s = double(its[i].frames) * sim::kControlDt;
+    const bool f = text2bfm::generate_motion(*models_, its[i].caption, go).falls > 0;
+    EXPECT_EQ(r.item_fell[i], f) << i;
+    fell += f;
+  }
+  EXPECT_GE(fell, 1);                       // the check is not vacuous
+  EXPECT_FALSE(r.item_fell[1]);             // 0.2 s: nothing to fall from
+  EXPECT_LE(fell, r.stats.fell);            // stats.fell also counts the extra samples
+}
+
 TEST_F(EvalGeneration, BadInputsAreRefused) {
   auto o = options(1);
   EXPECT_THROW(text2bfm::generate_eval_motions(*models_, {}, o), Error);

@@ -56,6 +56,24 @@ struct Args {
   t2m::eval::EvalProtocol protocol;
 };
 
+// {content label: {"clips": n, "fell": f}} over the scored clips (their main rollout), and a one-line summary.
+json fell_by_content(const std::vector<std::string>& content, const std::vector<bool>& fell) {
+  std::map<std::string, std::pair<int, int>> by;
+  for (size_t i = 0; i < content.size(); ++i) {
+    auto& [n, f] = by[content[i]];
+    ++n;
+    f += fell[i] ? 1 : 0;
+  }
+  json j = json::object();
+  std::string line = "fell by content:";
+  for (const auto& [c, nf] : by) {
+    j[c] = {{"clips", nf.first}, {"fell", nf.second}};
+    line += " " + c + " " + std::to_string(nf.second) + "/" + std::to_string(nf.first);
+  }
+  std::printf("%s\n", line.c_str());
+  return j;
+}
+
 void run(Args a) {
   if (a.data.threads < 0) throw Error("eval text2bfm: --threads must be >= 0");
   if (a.protocol.runs < 1) throw Error("eval text2bfm: --runs must be >= 1");
@@ -110,8 +128,12 @@ void run(Args a) {
     const auto start = a.standing_start ? t2m::bfm::TrackStart::standing : t2m::bfm::TrackStart::reference;
     const auto res = t2m::bfm::track_bfm(*agent, h, sel, {}, 0, through, start);
     int fell = 0;
+    std::vector<std::string> content;
+    std::vector<bool> clip_fell;
     for (int c = 0; c < sel.clips(); ++c) {
       const auto* clip = by_name.at(sel.names[c]);
+      content.push_back(clip->content);
+      clip_fell.push_back(res[c].fell);
       t2m::eval::MotionEntry e;
       e.caption = t2m::data::make_caption(clip->content, clip->style, kRealCaptionSeed, 0).text;
       char f[32];
@@ -122,7 +144,8 @@ void run(Args a) {
       fell += res[c].fell ? 1 : 0;
       entries.push_back(std::move(e));
     }
-    stats = {{"clips", sel.clips()}, {"fell", fell}, {"bfm", bfm_p}};
+    stats = {{"clips", sel.clips()}, {"fell", fell}, {"bfm", bfm_p},
+             {"fell_by_content", fell_by_content(content, clip_fell)}};
     what = std::string("BFM tracking rollouts (Eq 2 latents of the real clips, ") +
            (a.standing_start ? "standing start" : "reference start") + ") of the " + a.split + " split, " + bfm_p;
     if (a.standing_start) stats["start"] = "standing";
@@ -156,6 +179,9 @@ void run(Args a) {
              {"checkpoints", {{"text", paths.text}, {"vbb", paths.vbb}, {"gen", paths.gen}, {"bfm", paths.bfm}}},
              {"objective", models.gen.objective}, {"cfg", a.opt.gen.cfg}, {"steps", a.opt.gen.steps}, {"seed", a.opt.seed},
              {"candidates", a.opt.gen.candidates}, {"mm_prompts", a.opt.mm_prompts}, {"samples", a.opt.samples}};
+    std::vector<std::string> content;
+    for (int i : pick) content.push_back(clips[i].content);
+    stats["fell_by_content"] = fell_by_content(content, r.item_fell);  // each clip's main generation
     char cfg[32];
     std::snprintf(cfg, sizeof cfg, "%g", a.opt.gen.cfg);
     what = "Text2BFM generations (" + paths.gen + ", " + models.gen.objective + ", cfg " + cfg + ", " +

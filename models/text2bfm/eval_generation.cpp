@@ -120,6 +120,9 @@ EvalGenResult generate_eval_motions(Text2BfmModels& m, const std::vector<EvalIte
   st.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   st.cpu_s = process_cpu_s() - c0;
   double fall_sum = 0;
+  r.item_fell.assign(n, false);
+  for (int64_t j = 0; j < total; ++j)
+    if (jobs[j].sample == 0) r.item_fell[jobs[j].item] = gens[j].falls > 0;
   for (const Generation& g : gens) {
     ++st.generations;
     st.control_steps += g.z.size(0);

@@ -16,7 +16,8 @@
 //   every output bit depends only on the seeds, not on jobs (each motion is computed by one thread from its own
 //   Generator). progress(done, total) is called after each motion (from any thread, serialised).
 //   Stats: wall and process CPU seconds (all threads) of the whole call, per-stage wall seconds summed over
-//   generations, control steps, generations that fell and their mean first-fall time.
+//   generations, control steps, generations that fell and their mean first-fall time; item_fell[i]: whether item
+//   i's main generation (sample 0) fell.
 // Errors (t2m::Error "eval text2bfm: ..."): no items, an item with frames < 1 or an empty caption, samples < 2
 //   with mm_prompts > 0, mm_prompts > items, jobs < 1; pipeline errors pass through (the first one is rethrown).
 #pragma once
@@ -55,6 +56,7 @@ struct EvalGenStats {
 struct EvalGenResult {
   std::vector<eval::MotionEntry> entries;
   EvalGenStats stats;
+  std::vector<bool> item_fell;  // per item: its main generation (sample 0) fell
 };
 
 // Seed of sample s of item i: a splitmix64 mix of (seed, i, s).
