@@ -127,7 +127,6 @@ void run(Args a) {
     if (vbb) through = [&](const t2m::Tensor& z) { return t2b::reconstruct_clip_latents(*vbb, z); };
     const auto start = a.standing_start ? t2m::bfm::TrackStart::standing : t2m::bfm::TrackStart::reference;
     const auto res = t2m::bfm::track_bfm(*agent, h, sel, {}, 0, through, start);
-    int fell = 0;
     std::vector<std::string> content;
     std::vector<bool> clip_fell;
     for (int c = 0; c < sel.clips(); ++c) {
@@ -141,10 +140,9 @@ void run(Args a) {
       e.file = f;
       e.features = t2b::trajectory_features(*h, res[c].simulated, 0);
       e.frames = (int64_t)e.features.size() / 257;
-      fell += res[c].fell ? 1 : 0;
       entries.push_back(std::move(e));
     }
-    stats = {{"clips", sel.clips()}, {"fell", fell}, {"bfm", bfm_p},
+    stats = {{"clips", sel.clips()}, {"fell", std::count(clip_fell.begin(), clip_fell.end(), true)}, {"bfm", bfm_p},
              {"fell_by_content", fell_by_content(content, clip_fell)}};
     what = std::string("BFM tracking rollouts (Eq 2 latents of the real clips, ") +
            (a.standing_start ? "standing start" : "reference start") + ") of the " + a.split + " split, " + bfm_p;
