@@ -162,6 +162,30 @@ TEST_F(Pipeline, CandidatesKeepTheLongestUprightRollout) {
   }
 }
 
+// A given start state (evaluation only) replaces the standing start: frame 0 is that state; the default is qpos0 at
+// rest; a state of the wrong size, or only one of qpos / qvel, is refused before any work.
+TEST_F(Pipeline, StartStateReplacesTheStandingStart) {
+  const mjModel* mm = models_->humanoid->model();
+  auto o = short_clip(2);
+  std::vector<double> q(mm->qpos0, mm->qpos0 + mm->nq), v((size_t)mm->nv, 0.0);
+  q[2] += 0.05;  // the root 5 cm higher
+  v[0] = 0.3;    // moving along x
+  o.start_qpos = q, o.start_qvel = v;
+  const auto g = text2bfm::generate_motion(*models_, "a person waves", o);
+  for (int k = 0; k < mm->nq; ++k) EXPECT_EQ(g.traj.qpos[k], q[k]) << k;
+  for (int k = 0; k < mm->nv; ++k) EXPECT_EQ(g.traj.qvel[k], v[k]) << k;
+  const auto stand = text2bfm::generate_motion(*models_, "a person waves", short_clip(2));
+  EXPECT_EQ(stand.traj.qpos[2], mm->qpos0[2]);
+  EXPECT_EQ(stand.z.to_vector<float>(), g.z.to_vector<float>());  // same programs, other rollout
+  EXPECT_NE(stand.traj.qpos, g.traj.qpos);
+  auto bad = o;
+  bad.start_qvel.clear();
+  EXPECT_THROW(text2bfm::generate_motion(*models_, "a person waves", bad), Error);
+  bad = o;
+  bad.start_qpos.pop_back();
+  EXPECT_THROW(text2bfm::generate_motion(*models_, "a person waves", bad), Error);
+}
+
 TEST_F(Pipeline, ComposeOneProgramPerClause) {
   auto o = short_clip(1);
   o.compose = true;

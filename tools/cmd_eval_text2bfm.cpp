@@ -52,7 +52,7 @@ struct Args {
   std::string evaluator = "models/checkpoints/evaluator.t2mckpt", label;
   t2b::EvalGenOptions opt = [] { t2b::EvalGenOptions o; o.gen.steps = 0; return o; }();
   int max_clips = 0;
-  bool tracking = false, through_vbb = false, standing_start = false;
+  bool tracking = false, through_vbb = false, standing_start = false, clip_start = false;
   t2m::eval::EvalProtocol protocol;
 };
 
@@ -160,6 +160,18 @@ void run(Args a) {
     for (int i : pick)
       items.push_back({t2m::data::make_caption(clips[i].content, clips[i].style, kRealCaptionSeed, 0).text,
                        (int64_t)clips[i].frames});
+    if (a.clip_start) {  // each generation starts in its clip's first state (a diagnostic: the clip is not known
+                         // to a text prompt)
+      const auto refs = t2m::bfm::load_ref_motions(*models.humanoid, td.manifest, split, 0);
+      std::map<std::string, int> ref_of;
+      for (int c = 0; c < refs.clips(); ++c) ref_of[refs.names[c]] = c;
+      for (size_t k = 0; k < items.size(); ++k) {
+        const auto it = ref_of.find(clips[pick[k]].name);
+        if (it == ref_of.end()) throw Error("eval text2bfm: no reference motion for clip " + clips[pick[k]].name);
+        const t2m::sim::QposTrajectory first = refs.trajectory(it->second, 0, 1);
+        items[k].start_qpos = first.qpos, items[k].start_qvel = first.qvel;
+      }
+    }
     a.opt.mm_prompts = std::min<int64_t>(a.opt.mm_prompts, (int64_t)items.size());
     a.opt.jobs = threads;
     t2m::set_num_threads(1);  // one generation per thread
@@ -176,7 +188,8 @@ void run(Args a) {
              {"fell", s.fell}, {"mean_first_fall_s", s.mean_first_fall_s},
              {"checkpoints", {{"text", paths.text}, {"vbb", paths.vbb}, {"gen", paths.gen}, {"bfm", paths.bfm}}},
              {"objective", models.gen.objective}, {"cfg", a.opt.gen.cfg}, {"steps", a.opt.gen.steps}, {"seed", a.opt.seed},
-             {"candidates", a.opt.gen.candidates}, {"mm_prompts", a.opt.mm_prompts}, {"samples", a.opt.samples}};
+             {"candidates", a.opt.gen.candidates}, {"mm_prompts", a.opt.mm_prompts}, {"samples", a.opt.samples},
+             {"start", a.clip_start ? "the clip's first state" : "standing"}};
     std::vector<std::string> content;
     for (int i : pick) content.push_back(clips[i].content);
     stats["fell_by_content"] = fell_by_content(content, r.item_fell);  // each clip's main generation
@@ -185,7 +198,9 @@ void run(Args a) {
     what = "Text2BFM generations (" + paths.gen + ", " + models.gen.objective + ", cfg " + cfg + ", " +
            std::to_string(a.opt.gen.steps) + " steps" +
            (a.opt.gen.candidates > 1 ? ", longest upright of " + std::to_string(a.opt.gen.candidates) + " candidates"
-                                     : "") + ") for the captions of the " + a.split + " split";
+                                     : "") +
+           (a.clip_start ? ", each from its clip's first state" : "") + ") for the captions of the " + a.split +
+           " split";
     std::printf("generated %lld motions (%lld control steps) in %.1f s wall, %.1f s CPU, %d thread(s); %lld fell "
                 "(mean first fall %.2f s)\n", (long long)s.generations, (long long)s.control_steps, s.wall_s,
                 s.cpu_s, threads, (long long)s.fell, s.mean_first_fall_s);
@@ -242,6 +257,9 @@ void add_eval_text2bfm(CLI::App& app) {
               "with --tracking: the body starts standing at rest (qpos0), as generations do, not in the clip's "
               "first state")
       ->needs("--tracking");
+  c->add_flag("--clip-start", a->clip_start,
+              "generations start in the first state of the clip their caption came from, not standing (a diagnostic)")
+      ->excludes("--tracking");
   c->add_option("--data", a->data.data_dir, "motion data directory");
   c->add_option("--cache", a->data.cache_dir, "cache directory");
   c->add_option("--threads", a->data.threads, "threads: generations run in parallel over clips (0 = default)");

@@ -97,6 +97,7 @@ EvalGenResult generate_eval_motions(Text2BfmModels& m, const std::vector<EvalIte
       GenerateOptions go = opt.gen;
       go.seed = sample_seed(opt.seed, jb.item, jb.sample);
       go.length_s = double(it.frames) * sim::kControlDt;
+      go.start_qpos = it.start_qpos, go.start_qvel = it.start_qvel;
       Generation g = generate_motion(m, it.caption, go);
       eval::MotionEntry& e = r.entries[j];
       e.caption = it.caption;

@@ -7,11 +7,11 @@
 //   A generation records T + 1 states (s_0 = the standing start), so first = 1 gives T frames, the length of the
 //   clip the prompt came from.
 // generate_eval_motions(m, items, opt): items[i] = (caption, frames T_i). Item i is generated with
-//   GenerateOptions opt.gen, length T_i / 30 s, seed = sample_seed(opt.seed, i, 0); the mm_prompts items
-//   i = floor(k * n / mm_prompts), k = 0..mm_prompts-1 (spread over the list) get opt.samples samples each
-//   (sample s: seed sample_seed(opt.seed, i, s); sample 0 is the main one). Output entries (motion_dir.h), one per
-//   generated motion, in item order: "iiii.npy" for items without extra samples, "iiii_ss.npy" with
-//   prompt = k for the MultiModality prompts; so main_set() is every item exactly once.
+//   GenerateOptions opt.gen, length T_i / 30 s, the item's start state (if any), seed = sample_seed(opt.seed, i, 0);
+//   the mm_prompts items i = floor(k * n / mm_prompts), k = 0..mm_prompts-1 (spread over the list) get opt.samples
+//   samples each (sample s: seed sample_seed(opt.seed, i, s); sample 0 is the main one). Output entries
+//   (motion_dir.h), one per generated motion, in item order: "iiii.npy" for items without extra samples,
+//   "iiii_ss.npy" with prompt = k for the MultiModality prompts; so main_set() is every item exactly once.
 //   Generations run in parallel over items with `jobs` OpenMP threads (each generation single-threaded inside);
 //   every output bit depends only on the seeds, not on jobs (each motion is computed by one thread from its own
 //   Generator). progress(done, total) is called after each motion (from any thread, serialised).
@@ -36,6 +36,7 @@ std::vector<float> trajectory_features(const sim::Humanoid& h, const sim::QposTr
 struct EvalItem {
   std::string caption;
   int64_t frames = 0;  // T, control steps (30 Hz)
+  std::vector<double> start_qpos = {}, start_qvel = {};  // the rollouts' first state; empty: the standing start
 };
 
 struct EvalGenOptions {

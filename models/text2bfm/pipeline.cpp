@@ -170,7 +170,7 @@ void sample_and_roll_out(Text2BfmModels& m, const TextTokens& tt, uint64_t seed,
   g.times.decode = seconds_since(t0);
   g.cpu.decode = process_cpu_s() - c0;
 
-  // Stage "rollout": the BFM policy mean in MuJoCo from the standing start.
+  // Stage "rollout": the BFM policy mean in MuJoCo from the standing start (or the given start state).
   t0 = clock::now();
   c0 = process_cpu_s();
   sim::Env env(m.humanoid);
@@ -183,7 +183,10 @@ void sample_and_roll_out(Text2BfmModels& m, const TextTokens& tt, uint64_t seed,
   g.traj.qvel.resize((size_t)(steps + 1) * nv);
   g.obs.resize((size_t)(steps + 1) * D);
   std::vector<double> qvel0((size_t)nv, 0.0);
-  env.reset(m.humanoid->model()->qpos0, qvel0.data(), g.obs.data());
+  if (opt.start_qpos.empty())  // sizes checked by generate_motion
+    env.reset(m.humanoid->model()->qpos0, qvel0.data(), g.obs.data());
+  else
+    env.reset(opt.start_qpos.data(), opt.start_qvel.data(), g.obs.data());
   const int root = m.humanoid->root_qpos();
   auto record = [&](int64_t t) {
     std::copy(env.data()->qpos, env.data()->qpos + nq, g.traj.qpos.begin() + t * nq);
@@ -228,6 +231,12 @@ void add_generation_times(StageTimes& sum, const StageTimes& t) {
 
 Generation generate_motion(Text2BfmModels& m, const std::string& prompt, const GenerateOptions& opt) {
   opt.validate();
+  const size_t nq = (size_t)m.humanoid->model()->nq, nv = (size_t)m.humanoid->model()->nv;
+  if (!(opt.start_qpos.empty() && opt.start_qvel.empty()) &&
+      !(opt.start_qpos.size() == nq && opt.start_qvel.size() == nv))
+    throw Error("generate: a start state needs qpos [" + std::to_string(nq) + "] and qvel [" + std::to_string(nv) +
+                "], got [" + std::to_string(opt.start_qpos.size()) + "] and [" +
+                std::to_string(opt.start_qvel.size()) + "]");
   Generation head;
   head.prompt = prompt;
   head.opt = opt;

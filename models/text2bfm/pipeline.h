@@ -32,8 +32,8 @@
 //                 timing_s per stage (text, sample, decode, rollout, export, render, total; wall), cpu_s per
 //                 generation stage (process CPU time, all threads), threads, warnings.
 // Errors (t2m::Error): an empty prompt; a prompt (or, with compose, a clause) whose words are all unknown to the
-// tokenizer; length <= 0 or > 120 s; steps < 1; non-finite cfg; overlap < 0; candidates outside [1, 64]; a missing
-// checkpoint (names the file and the command that makes it); mismatched model widths; an existing or unwritable
+// tokenizer; length <= 0 or > 120 s; steps < 1; non-finite cfg; overlap < 0; candidates outside [1, 64]; a start
+// state of other sizes than the humanoid's qpos / qvel (or only one of the two); a missing checkpoint (names the file and the command that makes it); mismatched model widths; an existing or unwritable
 // output directory.
 #pragma once
 #include <cstdint>
@@ -76,6 +76,9 @@ struct GenerateOptions {
   bool compose = false;    // one program per clause (Eq 18-19)
   int64_t overlap = 4;     // O, latent steps blended per clause boundary
   int64_t candidates = 1;  // K: programs tried (seeds seed .. seed + K - 1); the longest upright rollout is kept
+  // The rollout's first state (qpos [nq], qvel [nv]); both empty (the default): the standing start. For evaluation
+  // only (`t2m eval text2bfm --clip-start` starts each generation in its clip's first state).
+  std::vector<double> start_qpos = {}, start_qvel = {};
   void validate() const;
 };
 
