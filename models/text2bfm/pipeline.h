@@ -32,9 +32,9 @@
 //                 timing_s per stage (text, sample, decode, rollout, export, render, total; wall), cpu_s per
 //                 generation stage (process CPU time, all threads), threads, warnings.
 // Errors (t2m::Error): an empty prompt; a prompt (or, with compose, a clause) whose words are all unknown to the
-// tokenizer; length <= 0 or > 120 s; steps < 1; non-finite cfg; overlap < 0; candidates outside [1, 64]; a start
-// state of other sizes than the humanoid's qpos / qvel (or only one of the two); a missing checkpoint (names the file and the command that makes it); mismatched model widths; an existing or unwritable
-// output directory.
+// tokenizer; length <= 0 or > 120 s; steps < 1; non-finite cfg; overlap < 0; candidates outside [1, 64]; a start state
+// of other sizes than the humanoid's qpos / qvel (or only one of the two); a missing checkpoint (names the file and the
+// command that makes it); mismatched model widths; an existing or unwritable output directory.
 #pragma once
 #include <cstdint>
 #include <memory>
