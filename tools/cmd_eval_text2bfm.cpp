@@ -2,7 +2,8 @@
 // tracking rollouts, the controller's reference row) on a data split with the `t2m eval motions` protocol.
 //   t2m eval text2bfm --out DIR [--split test] [--checkpoints D] [--gen CKPT] [--vbb CKPT] [--text CKPT]
 //                     [--bfm CKPT] [--cfg 1.5] [--steps N] [--mm-prompts 32] [--samples 10] [--seed 0]
-//                     [--max-clips N] [--runs 20] [--threads T] [--tracking [--through-vbb]]
+//                     [--max-clips N] [--runs 20] [--threads T] [--candidates K] [--clip-start]
+//                     [--tracking [--through-vbb] [--standing-start]]
 // For every clip of the split (sorted by name; --max-clips N: N spread evenly) the caption the real-motion row uses
 // (make_caption(labels, seed 7, index 0)) is generated at the clip's length with the chain (no render), the
 // simulated states s_1..s_T become raw features (models/text2bfm/eval_generation.h), DIR gets a motions directory
@@ -10,7 +11,10 @@
 // evaluator scores it (models/eval/evaluate_motions.h, FID against the split's real clips) into DIR/eval.json.
 // --tracking: instead of generating, the BFM tracks each real clip from its reference start with its Eq 2 latents
 // (models/bfm/track_eval.h); the rollouts are scored the same way (no MultiModality). --through-vbb: those latents
-// first go through the VBB (reconstruct_clip_latents: encoder mean, decoder, Proj), the bottleneck's share.
+// first go through the VBB (reconstruct_clip_latents: encoder mean, decoder, Proj), the bottleneck's share;
+// --standing-start: the tracking starts at qpos0 at rest, as generations do. --clip-start (generations): each starts
+// in its clip's first state instead (a diagnostic). --candidates K: as `t2m generate --candidates`. eval.json's
+// stats.fell_by_content counts each clip's main rollout by content label.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -101,7 +105,8 @@ void run(Args a) {
   if (!a.bfm.empty()) paths.bfm = a.bfm;
   const auto tp0 = std::chrono::steady_clock::now();
   if (a.tracking) {
-    // The controller's share: the BFM tracking the real clips with their Eq 2 latents, from the reference start.
+    // The controller's share: the BFM tracking the real clips with their Eq 2 latents, from the reference start (or
+    // standing, --standing-start).
     const std::string& bfm_p = paths.bfm;
     if (!fs::exists(bfm_p)) throw Error("eval text2bfm: missing BFM " + bfm_p + " (t2m train bfm)");
     auto agent = t2m::bfm::load_policy(bfm_p);
