@@ -1,6 +1,8 @@
 // test_bfm_latent_search.cpp — BFM tracking with the evaluation-time search over z (models/bfm/latent_search.h):
 // one candidate is plain Eq 2 tracking bit for bit, the search tracks closer than plain tracking, the result does
-// not depend on the thread count, bad options and references are refused; `t2m eval track` refuses bad search flags.
+// not depend on the thread count, bad options and references are refused; `t2m eval track` refuses bad search flags;
+// from a standing start the body begins at qpos0 at rest against the moved reference, with a relaxed fail distance
+// for the transition.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -12,6 +14,8 @@
 #include "models/bfm/latent_search.h"
 #include "models/bfm/policy_checkpoint.h"
 #include "models/bfm/track_eval.h"
+#include "sim/align_start.h"
+#include "sim/env.h"
 #include "sim/retarget.h"
 #include "tensor/parallel.h"
 #include "test_cli_util.h"
@@ -106,4 +110,60 @@ TEST(BfmLatentSearch, EvalTrackRefusesBadSearchFlags) {
     EXPECT_FALSE(fs::exists(out)) << bad;
   }
   fs::remove_all(w);
+}
+
+TEST(BfmLatentSearch, StandingStartBeginsAtQpos0AgainstTheMovedReference) {
+  FbAgent agent(tiny_fb_config(), 1);
+  const auto h = humanoid();
+  const int nq = h->model()->nq, nv = h->model()->nv;
+  // A sway 2.2 m away and turned: from qpos0 it can only be tracked once the reference is moved to start there.
+  std::vector<double> far(h->model()->qpos0, h->model()->qpos0 + nq);
+  far[0] = 2.0, far[1] = -1.0, far[3] = std::cos(0.5), far[6] = std::sin(0.5);
+  RefMotions r;
+  r.add(*h, "far", sim::align_start(*h, t2m::test::swaying(*h, 12, 0.1), far.data()));
+  LatentSearchOptions o;
+  o.samples = 4;
+  o.start = TrackStart::standing;
+  SearchRows rows;
+  const auto res = track_bfm_search(agent, h, r, o, {}, 0, &rows);
+  ASSERT_EQ(res.size(), 1u);
+  const auto& sim_q = res[0].simulated;
+  for (int k = 0; k < nq; ++k) EXPECT_EQ(sim_q.qpos[k], h->model()->qpos0[k]) << k;  // frame 0: qpos0 ...
+  for (int k = 0; k < nv; ++k) EXPECT_EQ(sim_q.qvel[k], 0.0) << k;                    // ... at rest
+  EXPECT_LT(res[0].mpjpe_m, 0.3);  // scored against the moved reference
+  const auto unmoved = track_bfm(agent, h, r, {}, 0, {}, TrackStart::standing);
+  EXPECT_GT(unmoved[0].mpjpe_m, 1.5);  // the clip where it is: 2.2 m off
+  // The first row is the standing body's state.
+  sim::Env env(h);
+  std::vector<float> s0((size_t)r.obs_dim);
+  const std::vector<double> rest((size_t)nv, 0.0);
+  env.reset(h->model()->qpos0, rest.data(), s0.data());
+  ASSERT_GT(rows.rows(), 0);
+  for (int k = 0; k < r.obs_dim; ++k) ASSERT_EQ(rows.obs[k], s0[k]) << k;
+  // The latents are the clip's own (Eq 2 on its states, which the move leaves as they are).
+  const Tensor z = agent.infer_tracking_z(clip_states(r, 0), agent.config().track_window).contiguous();
+  for (int k = 0; k < agent.config().z_dim; ++k) EXPECT_EQ(rows.z[k], z.data<float>()[k]);
+}
+
+TEST(BfmLatentSearch, StandingStartRelaxesTheFailDistanceForTheTransition) {
+  FbAgent agent(tiny_fb_config(), 1);
+  const RefMotions r = sway_refs({{30, 0.1}});
+  sim::PdOptions strict;
+  strict.fail_distance = 0.01;  // every frame fails at once ...
+  LatentSearchOptions o;
+  o.samples = 4;
+  o.start = TrackStart::standing;
+  o.transition = 0;
+  SearchRows none;
+  track_bfm_search(agent, humanoid(), r, o, strict, 0, &none);
+  EXPECT_EQ(none.rows(), o.window);  // ... so the search plans the first window only
+  o.transition = 12;
+  o.transition_fail_distance = 5.0;  // ... except during the first 12 frames
+  SearchRows relaxed;
+  track_bfm_search(agent, humanoid(), r, o, strict, 0, &relaxed);
+  EXPECT_EQ(relaxed.rows(), 12);  // windows from frames 0, 3, 6, 9; frame 12, the first strict one, fails
+  o.start = TrackStart::reference;  // the relaxation belongs to the standing start only
+  SearchRows ref;
+  track_bfm_search(agent, humanoid(), r, o, strict, 0, &ref);
+  EXPECT_EQ(ref.rows(), o.window);
 }

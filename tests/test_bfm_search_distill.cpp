@@ -222,6 +222,14 @@ TEST(BfmSearchDistill, SearchOptionsRefuseBadElitesAndNoise) {
   EXPECT_THROW(check_search_options(o), Error);
   o.action_noise = NAN;
   EXPECT_THROW(check_search_options(o), Error);
+  o.action_noise = 0;
+  o.transition = -1;
+  EXPECT_THROW(check_search_options(o), Error);
+  o.transition = 30;
+  for (double f : {0.0, -1.0, (double)NAN, (double)INFINITY}) {
+    o.transition_fail_distance = f;
+    EXPECT_THROW(check_search_options(o), Error) << f;
+  }
 }
 
 TEST(BfmSearchDistill, TrainBfmDistillRefusesBadFlags) {
@@ -236,7 +244,8 @@ TEST(BfmSearchDistill, TrainBfmDistillRefusesBadFlags) {
   for (const std::string& args :
        {good + "--every 0", good + "--search-samples 8 --elites 9", good + "--action-noise -1", good + "--contents ,",
         good + "--chunk-clips 0", good + "--no-such-flag", good + "--every 3 --offset 3", good + "--offset -1", good + "--max-chunks -2",
-        good + "--fit-seed x",
+        good + "--fit-seed x", good + "--standing-start --transition-fail-distance 0",
+        good + "--standing-start --transition-frames -1",
         good + "--with-rows '" + (w / "none").string() + "'", good + "--with-rows '" + (w / "empty").string() + "'",
         "--policy '" + (w / "none").string() + "' --out '" + out.string() + "'"}) {
     EXPECT_NE(run_t2m("train bfm-distill " + args, w / "bad.log"), 0) << args;

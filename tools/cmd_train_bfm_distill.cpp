@@ -3,8 +3,9 @@
 //   t2m train bfm-distill --policy P --out DIR [--contents raise-up,wave] [--every K [--offset O]]
 //       [--chunk-clips 40] [--max-chunks C] [--minutes M] [--search-samples 64 --search-horizon 5
 //       --search-sigma 0.3 --elites 8 --action-noise 0.03 --search-seed 1] [--anchor-clips 400 --anchor-noise 0.05
-//       --anchor-weight 1 --updates 6000 --lr 1e-4 --batch 256 --fit-seed 7] [--threads T] [--export OUT.t2mckpt
-//       [--fit-partial]] [--with-rows EARLIER_DIR ...]
+//       --anchor-weight 1 --updates 6000 --lr 1e-4 --batch 256 --fit-seed 7] [--anchor-all] [--threads T]
+//       [--export OUT.t2mckpt [--fit-partial]] [--with-rows EARLIER_DIR ...]
+//       [--standing-start [--transition-frames 30] [--transition-fail-distance 1.0]]
 // Stage 1 (collection): the train clips whose content label starts with one of --contents (every K-th from the
 // O-th, name order; with --max-chunks only the first C chunks) are tracked by the z search of P with action
 // noise, in chunks of --chunk-clips clips; chunk k is written to DIR/rows_NNNNN.t2mckpt (NNNNN = its first clip)
@@ -14,6 +15,11 @@
 // rows from plain Eq 2 rollouts of P on the train clips of the other contents (--anchor-clips spread over the
 // split), the actor fit on this round's rows and those of --with-rows (earlier rounds: DAgger aggregation), the
 // policy written to OUT.
+// --standing-start (session 47): every searched rollout starts at qpos0 at rest, where generations start, with the
+// reference moved to start there and a relaxed fail distance for the first frames (latent_search.h): rows of the
+// transition from standing into each motion. --anchor-all: the anchor rows come from train clips of every content,
+// the searched ones included (from their first state), so that a round fitted without earlier rounds' rows keeps
+// the policy's own tracking of them.
 // DIR/config.json holds the selection and search options of the first invocation; later ones must agree.
 #include <algorithm>
 #include <chrono>
@@ -47,7 +53,7 @@ struct DistillArgs {
   std::vector<std::string> with_rows;  // earlier rounds' row directories, fitted too (DAgger aggregation)
   int every = 1, offset = 0, max_chunks = 0, chunk_clips = 40, anchor_clips = 400, threads = 0;
   double minutes = 0, anchor_noise = 0.05;
-  bool fit_partial = false;
+  bool fit_partial = false, standing_start = false, anchor_all = false;
   bfm::LatentSearchOptions search;
   bfm::DistillOptions fit;
   DistillArgs() {
@@ -102,7 +108,6 @@ std::vector<std::string> row_files(const std::string& dir) {
 void run_distill(const DistillArgs& a) {
   const auto t0 = std::chrono::steady_clock::now();
   if (a.threads > 0) t2m::set_num_threads(a.threads);
-  bfm::check_search_options(a.search);
   const std::vector<std::string> contents = split_list(a.contents);
   if (contents.empty()) throw Error("train bfm-distill: --contents names no content label");
   const std::string dir = a.out.empty() ? data::default_cache_dir() + "/bfm/distill" : a.out;
@@ -113,6 +118,14 @@ void run_distill(const DistillArgs& a) {
               {"seed", a.search.seed}};
   if (a.offset >= a.every) throw Error("train bfm-distill: --offset must be below --every");
   if (a.offset > 0) cfg["offset"] = a.offset;  // absent when 0: directories of earlier builds stay valid
+  bfm::LatentSearchOptions search = a.search;
+  if (a.standing_start) {  // likewise absent without it
+    search.start = bfm::TrackStart::standing;
+    cfg["start"] = "standing";
+    cfg["transition"] = search.transition;
+    cfg["transition_fail_distance"] = search.transition_fail_distance;
+  }
+  bfm::check_search_options(search);
   auto agent = bfm::load_policy(a.policy);  // before touching DIR: a bad policy leaves nothing behind
   std::vector<std::vector<std::string>> earlier;  // --with-rows files, checked before the long search
   for (const std::string& d2 : a.with_rows) earlier.push_back(row_files(d2));
@@ -154,7 +167,7 @@ void run_distill(const DistillArgs& a) {
     bfm::RefMotions part;
     std::vector<std::string> names;
     for (int c = first; c < last; ++c) part.add(*h, sel.names[c], sel.trajectory(c)), names.push_back(sel.names[c]);
-    bfm::LatentSearchOptions so = a.search;
+    bfm::LatentSearchOptions so = search;
     so.seed = a.search.seed + (uint64_t)first;  // clip i of the selection: seed + i
     bfm::SearchRows rows;
     const auto res = bfm::track_bfm_search(*agent, h, part, so, {}, 0, &rows);
@@ -184,11 +197,12 @@ void run_distill(const DistillArgs& a) {
   int extra = 0;  // rows of earlier rounds: clip ids moved past this round's
   for (const auto& files : earlier)
     for (const std::string& f : files) extra += append_file(f, n + extra);
-  const bfm::RefMotions others = bfm::load_ref_motions(*h, by_content(manifest, contents, false), data::Split::train,
-                                                       a.anchor_clips);
+  const bfm::RefMotions others = bfm::load_ref_motions(
+      *h, a.anchor_all ? manifest : by_content(manifest, contents, false), data::Split::train, a.anchor_clips);
   const bfm::SearchRows anchor = bfm::plain_tracking_rows(*agent, h, others, a.anchor_noise, a.search.seed);
-  std::fprintf(stderr, "train bfm-distill: %lld label rows, %lld anchor rows (%d clips of other contents)\n",
-               (long long)labels.rows(), (long long)anchor.rows(), others.clips());
+  std::fprintf(stderr, "train bfm-distill: %lld label rows, %lld anchor rows (%d clips of %s)\n",
+               (long long)labels.rows(), (long long)anchor.rows(), others.clips(),
+               a.anchor_all ? "every content" : "other contents");
   t2m::nn::Progress fbar(a.fit.updates, "train bfm-distill: fit");
   const bfm::DistillStats st = bfm::fit_actor_to_search(
       *agent, labels, anchor, a.fit, [&](int64_t u, double loss) { fbar.update(u, {{"loss", loss}}); });
@@ -201,7 +215,7 @@ void run_distill(const DistillArgs& a) {
   info["fit"] = {{"chunks", used},         {"of_chunks", chunks}, {"updates", a.fit.updates},
                  {"lr", a.fit.lr},         {"batch", a.fit.batch},  {"seed", a.fit.seed},
                  {"anchor_weight", a.fit.anchor_weight}, {"anchor_clips", a.anchor_clips},
-                 {"anchor_noise", a.anchor_noise}, {"max_chunks", a.max_chunks},
+                 {"anchor_noise", a.anchor_noise}, {"anchor_all", a.anchor_all}, {"max_chunks", a.max_chunks},
                  {"label_rows", labels.rows()}, {"anchor_rows", anchor.rows()}};
   info["data"] = "Bandai-Namco-Research-Motiondataset (CC BY-NC 4.0), train split";
   bfm::save_policy(*agent, a.export_path, info);
@@ -237,6 +251,14 @@ void add_train_bfm_distill(CLI::App& app) {
       ->capture_default_str()->check(CLI::PositiveNumber);
   c->add_option("--anchor-noise", a.anchor_noise, "action noise of the anchor rollouts")->capture_default_str();
   c->add_option("--anchor-weight", a.fit.anchor_weight, "weight of the anchor term")->capture_default_str();
+  c->add_flag("--anchor-all", a.anchor_all, "anchor rows from train clips of every content, the searched ones too");
+  c->add_flag("--standing-start", a.standing_start,
+              "search from qpos0 at rest (where generations start), the reference moved to start there");
+  c->add_option("--transition-frames", a.search.transition,
+                "standing start: frames during which a body may be --transition-fail-distance off")
+      ->capture_default_str()->check(CLI::NonNegativeNumber);
+  c->add_option("--transition-fail-distance", a.search.transition_fail_distance,
+                "standing start: the fail distance (m) of those frames")->capture_default_str();
   c->add_option("--updates", a.fit.updates, "fit: AdamW updates")->capture_default_str()->check(CLI::PositiveNumber);
   c->add_option("--lr", a.fit.lr, "fit: peak learning rate (cosine to 0)")->capture_default_str();
   c->add_option("--batch", a.fit.batch, "fit: rows of each kind per update")->capture_default_str()->check(CLI::PositiveNumber);

@@ -11,19 +11,23 @@
 
 #include "autograd/no_grad.h"
 #include "models/bfm/track_eval.h"
+#include "sim/align_start.h"
 #include "sim/env.h"
 
 namespace t2m::bfm {
 void check_search_options(const LatentSearchOptions& o) {
   if (o.samples < 1 || o.window < 1 || o.horizon < 1 || !(o.sigma >= 0) || !std::isfinite(o.sigma) ||
       !(o.carry >= 0 && o.carry <= 1) || o.elites < 1 || o.elites > o.samples || !(o.action_noise >= 0) ||
-      !std::isfinite(o.action_noise))
+      !std::isfinite(o.action_noise) || o.transition < 0 || !(o.transition_fail_distance > 0) ||
+      !std::isfinite(o.transition_fail_distance))
     throw Error("track_bfm_search: bad options (samples " + std::to_string(o.samples) + ", window " +
                 std::to_string(o.window) + ", horizon " + std::to_string(o.horizon) + ", sigma " +
                 std::to_string(o.sigma) + ", carry " + std::to_string(o.carry) + ", elites " +
-                std::to_string(o.elites) + ", action noise " + std::to_string(o.action_noise) +
+                std::to_string(o.elites) + ", action noise " + std::to_string(o.action_noise) + ", transition " +
+                std::to_string(o.transition) + ", transition fail distance " +
+                std::to_string(o.transition_fail_distance) +
                 "): need samples, window, horizon >= 1, finite sigma >= 0, carry in [0, 1], elites in [1, samples],"
-                " finite action noise >= 0");
+                " finite action noise >= 0, transition >= 0, finite transition fail distance > 0");
 }
 
 namespace {
@@ -44,19 +48,20 @@ void offset_latent(const float* z, const double* delta, int d, float* out) {
 }
 
 // sim::tracking_frame_cost of the env's frame; *worst = max(*worst, the frame's largest body error), infinite on
-// divergence.
-double candidate_frame_cost(const sim::Env& env, const std::vector<int>& bodies, const float* ref, double* worst) {
+// divergence or once that error reaches the frame's fail distance (the candidate is dropped).
+double candidate_frame_cost(const sim::Env& env, const std::vector<int>& bodies, const float* ref, double fail,
+                            double* worst) {
   double w = 0;
   const double cost = sim::tracking_frame_cost(env.data(), bodies, ref, &w);
-  *worst = std::max(*worst, env.diverged() || !std::isfinite(w) ? INFINITY : w);
+  *worst = env.diverged() || !(w < fail) ? INFINITY : std::max(*worst, w);
   return cost;
 }
 
-// The applied offset: the best candidate's (survivors first, then the cost, then the index), or with elites K > 1
-// the mean of the K best in that order (a NaN cost ranks last). order [S] is scratch.
+// The applied offset: the best candidate's (survivors, worst finite, first; then the cost, then the index), or with
+// elites K > 1 the mean of the K best in that order (a NaN cost ranks last). order [S] is scratch.
 void choose_offset(const std::vector<double>& delta, const std::vector<double>& cost, const std::vector<double>& worst,
-                   double fail_distance, int elites, int d, std::vector<int>& order, std::vector<double>& out) {
-  const auto survives = [&](int i) { return worst[i] < fail_distance; };
+                   int elites, int d, std::vector<int>& order, std::vector<double>& out) {
+  const auto survives = [&](int i) { return std::isfinite(worst[i]); };
   if (elites == 1) {
     int best = 0;
     for (int i = 1; i < (int)cost.size(); ++i)
@@ -83,6 +88,18 @@ std::vector<sim::PdResult> track_bfm_search(FbAgent& agent, std::shared_ptr<cons
   ag::NoGradGuard ng;
   const int S = opt.samples, D = refs.obs_dim, A = h->model()->nu, d = agent.config().z_dim;
   const int L = window > 0 ? window : agent.config().track_window;
+  const bool standing = opt.start == TrackStart::standing;
+  // What the body is scored against: the clips themselves, or (standing) moved to start where qpos0 stands.
+  RefMotions moved;
+  if (standing)
+    for (int c = 0; c < refs.clips(); ++c)
+      moved.add(*h, refs.names[c], sim::align_start(*h, refs.trajectory(c), h->model()->qpos0));
+  const RefMotions& target = standing ? moved : refs;
+  const auto fail_at = [&](int frame) {  // the fail distance at reference frame `frame`
+    return standing && frame < opt.transition ? std::max(pd.fail_distance, opt.transition_fail_distance)
+                                              : pd.fail_distance;
+  };
+  const std::vector<double> rest((size_t)h->model()->nv, 0.0);
   const std::vector<int>& bodies = h->tracked_bodies();
   const size_t J = bodies.size();
   std::vector<std::unique_ptr<sim::Env>> envs;  // one per candidate
@@ -99,8 +116,11 @@ std::vector<sim::PdResult> track_bfm_search(FbAgent& agent, std::shared_ptr<cons
     const int T = refs.frames(c);
     const Tensor z = agent.infer_tracking_z(clip_states(refs, c), L).contiguous();  // [T-1, d], Eq 2
     const float* zt = z.data<float>();
-    const sim::QposTrajectory traj = refs.trajectory(c);
-    body.reset(traj.qpos.data(), traj.qvel.data(), nullptr);
+    const sim::QposTrajectory traj = target.trajectory(c);
+    if (standing)
+      body.reset(h->model()->qpos0, rest.data(), nullptr);
+    else
+      body.reset(traj.qpos.data(), traj.qvel.data(), nullptr);
     sim::TrackingScorer score(*h, traj, pd);
     score.add_frame(body);
     std::mt19937_64 rng(opt.seed + (uint64_t)c);
@@ -126,15 +146,16 @@ std::vector<sim::PdResult> track_bfm_search(FbAgent& agent, std::shared_ptr<cons
             offset_latent(zt + (size_t)(t + s - 1) * d, delta.data() + (size_t)i * d, d,
                           zc.data<float>() + (size_t)i * d);
           const Tensor a = agent.actor_mean(obs, zc).contiguous();  // [S, A]
-          const float* ref = refs.body_pos.data() + (size_t)refs.global_frame(c, t + s) * J * 3;
+          const float* ref = target.body_pos.data() + (size_t)target.global_frame(c, t + s) * J * 3;
+          const double fail = fail_at(t + s);
 #pragma omp parallel for schedule(dynamic)
           for (int i = 0; i < S; ++i) {
-            if (!(worst[i] < pd.fail_distance)) continue;  // a dropped candidate stops simulating
+            if (!std::isfinite(worst[i])) continue;  // a dropped candidate stops simulating
             envs[i]->step(a.data<float>() + (size_t)i * A, obs.data<float>() + (size_t)i * D);
-            cost[i] += candidate_frame_cost(*envs[i], bodies, ref, &worst[i]);
+            cost[i] += candidate_frame_cost(*envs[i], bodies, ref, fail, &worst[i]);
           }
         }
-        choose_offset(delta, cost, worst, pd.fail_distance, opt.elites, d, order, prev);
+        choose_offset(delta, cost, worst, opt.elites, d, order, prev);
       }
       bool failed = false;
       for (int s = 1; s <= w; ++s) {
@@ -152,7 +173,7 @@ std::vector<sim::PdResult> track_bfm_search(FbAgent& agent, std::shared_ptr<cons
           body.step(a.data<float>(), nullptr);
         }
         score.add_frame(body);
-        failed = failed || score.last_frame_error() >= pd.fail_distance;
+        failed = failed || score.last_frame_error() >= fail_at(t + s);
       }
       t += w;
       if (failed) planning = false;

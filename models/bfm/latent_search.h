@@ -24,8 +24,15 @@
 // body executes (clamped to [-1, 1]; DART-style, from an engine of its own: 0 draws nothing, the search unchanged), and
 // `rows` receives (s_t, z_t, mu(s_t, z'_t), clip, t) for every control step the search is in charge of (the clean
 // action, before noise).
+// Standing start (session 47; start = TrackStart::standing): the tracked body starts at qpos0 at rest, where every
+// generation starts, instead of in the clip's first state; the reference is scored moved on the floor to start where
+// the body stands (sim/align_start.h; the latents are the clip's own, the observation being heading- and
+// position-free), and for the first `transition` frames a body may be transition_fail_distance off (instead of
+// pd.fail_distance) before a candidate is dropped or the planning stops: the search first has to get the body from
+// standing into the clip's pose. Rows of such a search are the states a generation passes through.
 // Errors (t2m::Error): samples, window or horizon < 1; sigma < 0 or not finite; carry outside [0, 1]; elites
-// outside [1, samples]; action_noise < 0 or not finite; references of another model or obs dim.
+// outside [1, samples]; action_noise < 0 or not finite; transition < 0; transition_fail_distance not finite or
+// <= 0; references of another model or obs dim.
 #pragma once
 #include <cstdint>
 #include <memory>
@@ -33,6 +40,7 @@
 
 #include "models/bfm/fb_agent.h"
 #include "models/bfm/ref_motions.h"
+#include "models/bfm/track_eval.h"
 #include "sim/pd_tracker.h"
 
 namespace t2m::bfm {
@@ -46,6 +54,9 @@ struct LatentSearchOptions {
   uint64_t seed = 1;   // clip c draws from seed + c
   int elites = 1;      // offsets averaged into the applied one (1 = the best candidate's)
   double action_noise = 0.0;  // std of the noise on the tracked body's actions (data collection; 0 = evaluation)
+  TrackStart start = TrackStart::reference;  // standing: from qpos0 at rest, the reference moved to it
+  int transition = 30;                       // standing start: frames with the relaxed fail distance
+  double transition_fail_distance = 1.0;     // m; the fail distance of those frames (never below pd's)
 };
 
 // The control steps the search drove (row r belongs to clip[r], frame t = frame[r], 0-based transition index).
