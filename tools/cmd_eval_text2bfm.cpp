@@ -21,6 +21,7 @@
 #include <filesystem>
 #include <map>
 #include <memory>
+#include <set>
 #include <string>
 
 #include "models/bfm/policy_checkpoint.h"
@@ -78,6 +79,24 @@ json fell_by_content(const std::vector<std::string>& content, const std::vector<
   return j;
 }
 
+// The reference motions (models/bfm/ref_motions.h) of the picked clips of the split, in their order (names sorted);
+// only they are retargeted. Error when one of them has none.
+t2m::bfm::RefMotions picked_ref_motions(const t2m::sim::Humanoid& h, const t2m::data::Manifest& manifest,
+                                        t2m::data::Split split, const std::vector<std::string>& names) {
+  const std::set<std::string> want(names.begin(), names.end());
+  std::vector<const t2m::data::ClipInfo*> sel;
+  for (const auto* c : t2m::bfm::select_split_clips(manifest, split, 0))
+    if (want.count(c->name)) sel.push_back(c);
+  auto refs = t2m::bfm::load_ref_motions(h, sel);
+  if (refs.names != names) {
+    const std::set<std::string> have(refs.names.begin(), refs.names.end());
+    for (const auto& n : names)
+      if (!have.count(n)) throw Error("eval text2bfm: no reference motion for clip " + n);
+    throw Error("eval text2bfm: the reference motions are not in the clips' order");
+  }
+  return refs;
+}
+
 void run(Args a) {
   if (a.data.threads < 0) throw Error("eval text2bfm: --threads must be >= 0");
   if (a.protocol.runs < 1) throw Error("eval text2bfm: --runs must be >= 1");
@@ -94,6 +113,8 @@ void run(Args a) {
   const int n_all = (int)clips.size();
   const int n = a.max_clips > 0 && a.max_clips < n_all ? a.max_clips : n_all;
   for (int k = 0; k < n; ++k) pick.push_back(int((int64_t)k * n_all / n));
+  std::vector<std::string> picked_names;  // sorted, as clips
+  for (int i : pick) picked_names.push_back(clips[i].name);
 
   std::vector<t2m::eval::MotionEntry> entries;
   json stats;
@@ -112,14 +133,7 @@ void run(Args a) {
     auto agent = t2m::bfm::load_policy(bfm_p);
     auto h = t2m::sim::Humanoid::create();
     t2m::set_num_threads(threads);
-    const auto refs = t2m::bfm::load_ref_motions(*h, td.manifest, split, 0);
-    std::map<std::string, const t2m::data::MotionClip*> by_name;
-    for (int i : pick) by_name[clips[i].name] = &clips[i];
-    t2m::bfm::RefMotions sel;
-    sel.obs_dim = refs.obs_dim, sel.nq = refs.nq, sel.nv = refs.nv;
-    for (int c = 0; c < refs.clips(); ++c)
-      if (by_name.count(refs.names[c])) sel.add(*h, refs.names[c], refs.trajectory(c));
-    if (sel.clips() == 0) throw Error("eval text2bfm: no reference clip of the split matched the data clips");
+    const auto sel = picked_ref_motions(*h, td.manifest, split, picked_names);  // clip c: clips[pick[c]]
     std::unique_ptr<t2b::Vbb> vbb;
     const std::string& vbb_p = paths.vbb;
     if (a.through_vbb) {
@@ -135,7 +149,7 @@ void run(Args a) {
     std::vector<std::string> content;
     std::vector<bool> clip_fell;
     for (int c = 0; c < sel.clips(); ++c) {
-      const auto* clip = by_name.at(sel.names[c]);
+      const auto* clip = &clips[pick[c]];
       content.push_back(clip->content);
       clip_fell.push_back(res[c].fell);
       t2m::eval::MotionEntry e;
@@ -167,13 +181,9 @@ void run(Args a) {
                        (int64_t)clips[i].frames});
     if (a.clip_start) {  // each generation starts in its clip's first state (a diagnostic: the clip is not known
                          // to a text prompt)
-      const auto refs = t2m::bfm::load_ref_motions(*models.humanoid, td.manifest, split, 0);
-      std::map<std::string, int> ref_of;
-      for (int c = 0; c < refs.clips(); ++c) ref_of[refs.names[c]] = c;
+      const auto refs = picked_ref_motions(*models.humanoid, td.manifest, split, picked_names);
       for (size_t k = 0; k < items.size(); ++k) {
-        const auto it = ref_of.find(clips[pick[k]].name);
-        if (it == ref_of.end()) throw Error("eval text2bfm: no reference motion for clip " + clips[pick[k]].name);
-        const t2m::sim::QposTrajectory first = refs.trajectory(it->second, 0, 1);
+        const t2m::sim::QposTrajectory first = refs.trajectory((int)k, 0, 1);
         items[k].start_qpos = first.qpos, items[k].start_qvel = first.qvel;
       }
     }

@@ -81,7 +81,10 @@ std::vector<const data::ClipInfo*> select_split_clips(const data::Manifest& mani
 
 RefMotions load_ref_motions(const sim::Humanoid& h, const data::Manifest& manifest, data::Split split,
                             int max_clips) {
-  const auto sel = select_split_clips(manifest, split, max_clips);
+  return load_ref_motions(h, select_split_clips(manifest, split, max_clips));
+}
+
+RefMotions load_ref_motions(const sim::Humanoid& h, const std::vector<const data::ClipInfo*>& sel) {
   const int N = (int)sel.size();
   std::vector<sim::QposTrajectory> traj(N);
   std::vector<std::string> err(N);

@@ -51,6 +51,8 @@ std::vector<const data::ClipInfo*> select_split_clips(const data::Manifest& mani
 // Loads, retargets and replays the selected clips (OpenMP over clips, results in name order).
 RefMotions load_ref_motions(const sim::Humanoid& h, const data::Manifest& manifest, data::Split split,
                             int max_clips = 0);
+// The same for the given clips (in their order; clips shorter than 2 frames are left out).
+RefMotions load_ref_motions(const sim::Humanoid& h, const std::vector<const data::ClipInfo*>& clips);
 
 // Standing-still ("hold") references, appended to dst as clips named "hold:qpos0" and "hold:<clip>": the
 // humanoid's standing start qpos0 (where generation starts) and the first frame of each listed clip of src, each
