@@ -261,6 +261,31 @@ TEST(BfmPolicyCheckpoint, RoundTripAndBadFiles) {
                Error);
 }
 
+TEST(BfmPolicyCheckpoint, LatentSpaceChecksumFollowsBOnly) {
+  FbAgent agent(tiny_config().fb, 11);
+  const std::string sum = latent_space_checksum(agent);
+  EXPECT_EQ(sum.size(), 16u);
+  const std::string d = tmp_dir("latent_sum");
+  save_policy(agent, d + "/p.t2mckpt");
+  EXPECT_EQ(latent_space_checksum(*load_policy(d + "/p.t2mckpt")), sum);  // survives the file
+  const auto bump = [&](const std::string& prefix) {  // +1e-3 on the first parameter under prefix
+    for (auto& [name, v] : agent.named_parameters())
+      if (name.rfind(prefix, 0) == 0) {
+        v.data().data<float>()[0] += 1e-3f;
+        return;
+      }
+    FAIL() << "no parameter " << prefix;
+  };
+  bump("actor.");  // a fine-tuned actor: same latent space
+  EXPECT_EQ(latent_space_checksum(agent), sum);
+  bump("B.");  // another B: another latent space
+  EXPECT_NE(latent_space_checksum(agent), sum);
+  FbConfig other = tiny_config().fb;
+  other.track_window += 1;  // same weights, another Eq 2 window
+  FbAgent a2(other, 11), a3(tiny_config().fb, 11);
+  EXPECT_NE(latent_space_checksum(a2), latent_space_checksum(a3));
+}
+
 TEST(BfmTrackEval, UsesThePdScorerOnEveryFrame) {
   FbAgent agent(tiny_config().fb, 1);
   const RefMotions& r = toy_refs();

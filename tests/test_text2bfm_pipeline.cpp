@@ -264,6 +264,18 @@ TEST_F(Pipeline, MissingOrMismatchedCheckpoints) {
     ASSERT_EQ(m.warnings.size(), 1u);
     EXPECT_NE(m.warnings[0].find("deadbeef"), std::string::npos);
     EXPECT_TRUE(models_->warnings.empty());
+    // A generator that records the latent space (B's checksum) loads without a warning beside a policy with
+    // that B whatever the file's checksum (a fine-tuned actor), and with one beside another B.
+    gb.train["bfm_latent_checksum"] = bfm::latent_space_checksum(*models_->policy);
+    text2bfm::save_gen_checkpoint(gb, (d / "gen_same_b.t2mckpt").string());
+    p.gen = (d / "gen_same_b.t2mckpt").string();
+    EXPECT_TRUE(text2bfm::load_text2bfm(p).warnings.empty());
+    gb.train["bfm_latent_checksum"] = "0123456789abcdef";
+    text2bfm::save_gen_checkpoint(gb, (d / "gen_other_b.t2mckpt").string());
+    p.gen = (d / "gen_other_b.t2mckpt").string();
+    const auto m2 = text2bfm::load_text2bfm(p);
+    ASSERT_EQ(m2.warnings.size(), 1u);
+    EXPECT_NE(m2.warnings[0].find("0123456789abcdef"), std::string::npos);
   }
   // A corrupted generator file.
   std::ofstream(d / "bad.t2mckpt") << "not a checkpoint";

@@ -133,7 +133,8 @@ void run(GenArgs a, const std::string& cmdline) {
   b.schedule = a.train.schedule;
   b.train = {{"command", cmdline}, {"steps", r.steps}, {"config", a.train.to_json()},
              {"data", "Bandai-Namco-Research-Motiondataset (CC BY-NC 4.0), train split"},
-             {"text_encoder", text_p}, {"vbb", vbb_p}, {"bfm", bfm_p}, {"bfm_checksum", sum}};
+             {"text_encoder", text_p}, {"vbb", vbb_p}, {"bfm", bfm_p}, {"bfm_checksum", sum},
+             {"bfm_latent_checksum", t2m::bfm::latent_space_checksum(*agent)}};
   const std::string ckpt = out + "/gen_small.t2mckpt";
   t2b::save_gen_checkpoint(b, ckpt);
   const json summary = {{"checkpoint", ckpt}, {"steps", r.steps}, {"seconds_this_run", r.seconds},

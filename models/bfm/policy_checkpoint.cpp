@@ -1,6 +1,8 @@
 // policy_checkpoint.cpp — actor + B + config of a trained FbAgent in one file (see policy_checkpoint.h).
 #include "models/bfm/policy_checkpoint.h"
 
+#include <cstdint>
+#include <cstdio>
 #include <set>
 
 #include "nn/checkpoint.h"
@@ -9,6 +11,25 @@ namespace t2m::bfm {
 
 bool is_policy_parameter(const std::string& name) {
   return name.rfind("actor.", 0) == 0 || name.rfind("B.", 0) == 0;
+}
+
+std::string latent_space_checksum(const FbAgent& agent) {
+  uint64_t h = 1469598103934665603ull;
+  const auto mix = [&h](const void* p, size_t n) {
+    for (size_t i = 0; i < n; ++i) h = (h ^ static_cast<const unsigned char*>(p)[i]) * 1099511628211ull;
+  };
+  const int64_t window = agent.config().track_window;
+  mix(&window, sizeof window);
+  for (const auto& [name, v] : agent.named_parameters()) {
+    if (name.rfind("B.", 0) != 0) continue;
+    mix(name.data(), name.size() + 1);  // with the terminating zero: names and bytes cannot run together
+    const Tensor t = v.data().to(DType::f32).contiguous();
+    for (const int64_t d : t.shape()) mix(&d, sizeof d);
+    mix(t.data<float>(), sizeof(float) * (size_t)t.numel());
+  }
+  char hex[24];
+  std::snprintf(hex, sizeof hex, "%016llx", (unsigned long long)h);
+  return hex;
 }
 
 void save_policy(const FbAgent& agent, const std::string& path, const nlohmann::json& info) {

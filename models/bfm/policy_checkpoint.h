@@ -26,4 +26,9 @@ std::unique_ptr<FbAgent> load_policy(const std::string& path, nlohmann::json* in
 // True for the parameter names a policy checkpoint holds ("actor." and "B." prefixes).
 bool is_policy_parameter(const std::string& name);
 
+// The identity of the policy's latent space: FNV-1a 64 (16 hex digits) over the B network's parameter names, shapes
+// and float32 bytes and the Eq 2 window. Policies with equal checksums give the same Eq 2 latents (an actor
+// fine-tuned by `t2m train bfm-distill` keeps its B), so a VBB or generator trained on one serves the other.
+std::string latent_space_checksum(const FbAgent& agent);
+
 }  // namespace t2m::bfm

@@ -76,8 +76,16 @@ Text2BfmModels load_text2bfm(const PipelinePaths& p) {
   mismatch("VBB compression vs the generator's", vc.compression(), m.gen.compression);
   mismatch("VBB in_dim vs BFM z_dim", vc.in_dim, fc.z_dim);
   // The generator learned programs of latents from one BFM (its B); a rollout with another policy still runs but
-  // the latents mean something else to it: say so in the outputs.
-  if (m.gen.train.contains("bfm_checksum") && m.gen.train["bfm_checksum"].is_string()) {
+  // the latents mean something else to it: say so in the outputs. Generators since session 47 record the latent
+  // space itself (B's checksum: a policy fine-tuned from that BFM keeps it), older ones the BFM file's checksum.
+  const auto recorded = [&](const char* key) { return m.gen.train.contains(key) && m.gen.train[key].is_string(); };
+  if (recorded("bfm_latent_checksum")) {
+    const std::string want = m.gen.train["bfm_latent_checksum"].get<std::string>(),
+                      have = bfm::latent_space_checksum(*m.policy);
+    if (want != have)
+      m.warnings.push_back("the generator was trained on the latent space " + want + " (B of " +
+                           m.gen.train.value("bfm", std::string("?")) + "), the policy " + p.bfm + " has " + have);
+  } else if (recorded("bfm_checksum")) {
     const std::string want = m.gen.train["bfm_checksum"].get<std::string>(), have = file_checksum(p.bfm);
     if (want != have)
       m.warnings.push_back("the generator was trained on latents of BFM " + want + ", the policy " + p.bfm +
