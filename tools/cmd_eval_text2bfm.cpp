@@ -249,7 +249,7 @@ void add_eval_text2bfm(CLI::App& app) {
   c->add_option("--gen", a->gen, "generator checkpoint (default CHECKPOINTS/gen_small.t2mckpt)");
   c->add_option("--vbb", a->vbb, "VBB checkpoint (default CHECKPOINTS/vbb_small.t2mckpt)");
   c->add_option("--text", a->text, "text encoder checkpoint (default CHECKPOINTS/text_encoder.t2mckpt)");
-  c->add_option("--bfm", a->bfm, "BFM policy checkpoint (default CHECKPOINTS/bfm_distill.t2mckpt)");
+  c->add_option("--bfm", a->bfm, "BFM policy checkpoint (default CHECKPOINTS/bfm_stand.t2mckpt)");
   c->add_option("--evaluator", a->evaluator, "metric evaluator checkpoint")->capture_default_str();
   c->add_option("--cfg", a->opt.gen.cfg, "classifier-free guidance weight w")->capture_default_str();
   c->add_option("--steps", a->opt.gen.steps, "sampler steps (0: 16 Euler steps for a flow generator, 50 DDIM "

@@ -1,6 +1,6 @@
 // cmd_generate.cpp — `t2m generate "PROMPT" --out DIR` (text -> simulated motion, models/text2bfm/pipeline.h) and
 // `t2m compose "A, then B" --out DIR` (the same with one program per clause, Eq 18-19; = generate --compose).
-// Checkpoints from --checkpoints DIR (default models/checkpoints): text_encoder, vbb_small, gen_small, bfm_distill
+// Checkpoints from --checkpoints DIR (default models/checkpoints): text_encoder, vbb_small, gen_small, bfm_stand
 // (text2bfm::PipelinePaths).
 // DIR receives motion.bvh, render.mp4 (unless --no-render), states.bin and metrics.json, all or nothing.
 // `--model NAME` runs a registered kinematic baseline instead (tools/kinematic_models.h; an unknown name lists

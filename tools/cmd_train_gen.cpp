@@ -160,7 +160,7 @@ void add_train_gen(CLI::App& app) {
       ->capture_default_str();
   c->add_option("--text", a->text, "text encoder checkpoint (default CHECKPOINTS/text_encoder.t2mckpt)");
   c->add_option("--vbb", a->vbb, "VBB checkpoint (default CHECKPOINTS/vbb_small.t2mckpt)");
-  c->add_option("--bfm", a->bfm, "BFM policy checkpoint (default CHECKPOINTS/bfm_distill.t2mckpt)");
+  c->add_option("--bfm", a->bfm, "BFM policy checkpoint (default CHECKPOINTS/bfm_stand.t2mckpt)");
   c->add_option("--latents", a->latents, "latent cache (default ~/.cache/t2m/latents/train.t2mckpt)");
   c->add_option("--manifest", a->manifest, "data manifest (default ~/.cache/t2m/bandai/manifest.json)");
   c->add_option("--out", a->out, "output directory (default ~/.cache/t2m/gen)");

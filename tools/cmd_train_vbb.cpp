@@ -249,7 +249,7 @@ void add_train_vbb(CLI::App& app) {
   cfg.vbb.width = 128;  // the small CPU config (docs/VBB.md); the paper's is --width 256 --depth 3
   cfg.vbb.depth = 2;
   c->add_option("--out", a.out, "run directory (default ~/.cache/t2m/vbb/default)");
-  c->add_option("--bfm", a.bfm, "BFM policy checkpoint (default models/checkpoints/bfm_distill.t2mckpt)");
+  c->add_option("--bfm", a.bfm, "BFM policy checkpoint (default models/checkpoints/bfm_stand.t2mckpt)");
   c->add_option("--text", a.text, "text encoder checkpoint (default models/checkpoints/text_encoder.t2mckpt)");
   c->add_option("--latents", a.latents, "latent cache directory (default ~/.cache/t2m/latents)");
   c->add_option("--manifest", a.manifest, "data manifest (default ~/.cache/t2m/bandai/manifest.json)");

@@ -8,15 +8,12 @@
 # Wave rounds (session 29) follow: the same, on every 3rd wave training clip only (offsets 0, 1, 2), which weights the
 # clips the policy still falls on most. Raise rounds (session 31) follow those: every 6th raise-up training clip
 # (offsets 2, 4, 0 of the raise-up clips alone). Late rounds (session 32) alternate after those: w4 = every 6th wave
-# clip from 0, ra4 = every 6th raise-up clip from 1, w5 = every 6th wave clip from 3. Standing rounds (session 47)
-# come last: s1 = every 6th raise-up clip from 0, searched from the standing start (qpos0 at rest, where generations
-# start; `--standing-start`), fitted on its own rows and anchors of every other content only (the earlier rounds'
-# rows had not been kept when it was made, so it cannot use them).
+# clip from 0, ra4 = every 6th raise-up clip from 1, w5 = every 6th wave clip from 3.
 # Usage: bash tools/train_bfm_distill.sh [OUT (default models/checkpoints/bfm_distill.t2mckpt)] [ROUNDS (default 3)]
 #            [LAST_CHUNKS (default 0: all; the last round run, wave and raise rounds included, searches and fits only
 #             its first LAST_CHUNKS chunks of 40)] [WAVE_ROUNDS (default 0; at most 3)] [RAISE_ROUNDS (default 0; at
 #             most 3; they need ROUNDS 4 and WAVE_ROUNDS 3)] [LATE_ROUNDS (default 0; at most 3; they need
-#             RAISE_ROUNDS 3)] [STANDING_ROUNDS (default 0; at most 1; it needs LATE_ROUNDS 2)]
+#             RAISE_ROUNDS 3)]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-models/checkpoints/bfm_distill.t2mckpt}
@@ -25,7 +22,6 @@ last_chunks=${3:-0}
 wave_rounds=${4:-0}
 raise_rounds=${5:-0}
 late_rounds=${6:-0}
-standing_rounds=${7:-0}
 offsets=(0 3 1 5 2 4)  # round k searches clips offsets[k-1], offsets[k-1] + 6, ... of the name-ordered selection
 if ! [[ "$rounds" =~ ^[1-6]$ ]]; then echo "train_bfm_distill.sh: ROUNDS must be 1..6, got '$rounds'" >&2; exit 2; fi
 if ! [[ "$last_chunks" =~ ^[0-6]$ ]]; then
@@ -45,18 +41,13 @@ if ! [[ "$late_rounds" =~ ^[0-3]$ ]] || ((late_rounds > 0 && raise_rounds != 3))
   echo "train_bfm_distill.sh: LATE_ROUNDS must be 0..3, and 1..3 only after 3 raise rounds, got '$late_rounds'" >&2
   exit 2
 fi
-if ! [[ "$standing_rounds" =~ ^[0-1]$ ]] || ((standing_rounds > 0 && late_rounds != 2)); then
-  echo "train_bfm_distill.sh: STANDING_ROUNDS must be 0 or 1, and 1 only after 2 late rounds, got" \
-    "'$standing_rounds'" >&2
-  exit 2
-fi
 export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive}
 bash tools/setup.sh >/dev/null
 dir=${T2M_CACHE:-$HOME/.cache/t2m}/bfm/distill_rounds
 mkdir -p "$dir"
 policy=models/checkpoints/bfm_track.t2mckpt
 with=()
-total=$((rounds + wave_rounds + raise_rounds + late_rounds + standing_rounds)) run=0
+total=$((rounds + wave_rounds + raise_rounds + late_rounds)) run=0
 # next_round NAME FLAGS...: the next round in order (search, then fit on its rows and every earlier round's; rows in
 # $dir/NAME). The last one run takes LAST_CHUNKS (its policy file is then NAME_cN).
 next_round() {
@@ -91,10 +82,5 @@ for ((l = 0; l < late_rounds; ++l)); do
   # shellcheck disable=SC2086  # the entries are word lists: NAME FLAGS...
   next_round ${late[l]}
 done
-if ((standing_rounds > 0)); then
-  with=()  # its own rows only (see the header)
-  next_round s1 --contents raise-up --every 6 --standing-start
-fi
 cp "$policy" "$out.tmp" && mv "$out.tmp" "$out"
-echo "wrote $out ($rounds rounds, $wave_rounds wave rounds, $raise_rounds raise rounds, $late_rounds late rounds," \
-  "$standing_rounds standing rounds; rows and round policies in $dir)"
+echo "wrote $out ($rounds rounds, $wave_rounds wave rounds, $raise_rounds raise rounds, $late_rounds late rounds; rows and round policies in $dir)"

@@ -1,4 +1,4 @@
-// policy_checkpoint.h — a shipped BFM (models/checkpoints/bfm_*.t2mckpt; the pipeline's: bfm_distill): what the
+// policy_checkpoint.h — a shipped BFM (models/checkpoints/bfm_*.t2mckpt; the pipeline's: bfm_stand): what the
 // text-to-motion pipeline needs from a trained FbAgent, the actor pi(a | s, z) and the backward map B (for Eq 2
 // latents), plus the config.
 // F, the target networks and the optimizer state stay in the training state (~/.cache/t2m/bfm/...).

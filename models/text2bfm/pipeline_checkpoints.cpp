@@ -72,7 +72,7 @@ FlowGeneratorConfig flow_config_from_json(const json& j) {
 
 PipelinePaths PipelinePaths::in_dir(const std::string& dir) {
   return {dir + "/text_encoder.t2mckpt", dir + "/vbb_small.t2mckpt", dir + "/gen_small.t2mckpt",
-          dir + "/bfm_distill.t2mckpt"};
+          dir + "/bfm_stand.t2mckpt"};
 }
 
 void save_gen_checkpoint(const GenBundle& b, const std::string& path) {

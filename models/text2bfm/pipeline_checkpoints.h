@@ -26,7 +26,8 @@ namespace t2m::text2bfm {
 // The four files of a pipeline set in one directory; the tools' defaults (generate, train vbb / gen, eval).
 struct PipelinePaths {
   std::string text, vbb, gen, bfm;
-  // DIR/text_encoder.t2mckpt, DIR/vbb_small.t2mckpt, DIR/gen_small.t2mckpt, DIR/bfm_distill.t2mckpt (the BFM whose
+  // DIR/text_encoder.t2mckpt, DIR/vbb_small.t2mckpt, DIR/gen_small.t2mckpt, DIR/bfm_stand.t2mckpt (since session
+  // 47: bfm_distill's actor fine-tuned to start from standing, bfm_distill's B; the BFM whose
   // latent space the VBB and generator were trained on)
   static PipelinePaths in_dir(const std::string& dir);
 };
