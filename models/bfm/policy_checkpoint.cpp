@@ -6,6 +6,7 @@
 #include <set>
 
 #include "nn/checkpoint.h"
+#include "nn/fnv1a.h"
 
 namespace t2m::bfm {
 
@@ -14,10 +15,8 @@ bool is_policy_parameter(const std::string& name) {
 }
 
 std::string latent_space_checksum(const FbAgent& agent) {
-  uint64_t h = 1469598103934665603ull;
-  const auto mix = [&h](const void* p, size_t n) {
-    for (size_t i = 0; i < n; ++i) h = (h ^ static_cast<const unsigned char*>(p)[i]) * 1099511628211ull;
-  };
+  uint64_t h = nn::kFnv1aBfmOffset;  // the offset of the generators' recorded checksums (nn/fnv1a.h)
+  const auto mix = [&h](const void* p, size_t n) { h = nn::fnv1a64(p, n, h); };
   const int64_t window = agent.config().track_window;
   mix(&window, sizeof window);
   for (const auto& [name, v] : agent.named_parameters()) {
@@ -27,9 +26,7 @@ std::string latent_space_checksum(const FbAgent& agent) {
     for (const int64_t d : t.shape()) mix(&d, sizeof d);
     mix(t.data<float>(), sizeof(float) * (size_t)t.numel());
   }
-  char hex[24];
-  std::snprintf(hex, sizeof hex, "%016llx", (unsigned long long)h);
-  return hex;
+  return nn::fnv1a_hex(h);
 }
 
 void save_policy(const FbAgent& agent, const std::string& path, const nlohmann::json& info) {

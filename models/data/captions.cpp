@@ -4,6 +4,7 @@
 #include <cctype>
 #include <set>
 
+#include "nn/fnv1a.h"
 #include "tensor/rng.h"
 #include "tensor/tensor.h"
 
@@ -53,9 +54,8 @@ void caption_random_bits(uint64_t seed, uint64_t key, uint64_t counter, uint32_t
 namespace {
 
 uint64_t label_key(const std::string& content, const std::string& style) {
-  uint64_t h = 0xcbf29ce484222325ull;  // FNV-1a 64 of "content/style"
-  for (unsigned char ch : content + "/" + style) { h ^= ch; h *= 0x100000001b3ull; }
-  return h;
+  const std::string key = content + "/" + style;  // FNV-1a 64 of "content/style"
+  return nn::fnv1a64(key.data(), key.size());
 }
 
 std::string fill(const std::string& tmpl, const std::string& subject, const std::string& manner) {

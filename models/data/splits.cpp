@@ -8,6 +8,7 @@
 #include <sstream>
 #include <unistd.h>
 
+#include "nn/fnv1a.h"
 #include "tensor/tensor.h"
 
 namespace t2m::data {
@@ -51,8 +52,7 @@ namespace {
 
 // FNV-1a 64 of a string, then the splitmix64 finaliser (spreads close strings apart); mapped to [0, 1).
 double hash01(const std::string& s) {
-  uint64_t h = 0xcbf29ce484222325ull;
-  for (unsigned char ch : s) { h ^= ch; h *= 0x100000001b3ull; }
+  uint64_t h = nn::fnv1a64(s.data(), s.size());
   h += 0x9e3779b97f4a7c15ull;
   h = (h ^ (h >> 30)) * 0xbf58476d1ce4e5b9ull;
   h = (h ^ (h >> 27)) * 0x94d049bb133111ebull;

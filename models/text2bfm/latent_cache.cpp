@@ -12,6 +12,7 @@
 
 #include "models/bfm/ref_motions.h"
 #include "nn/checkpoint.h"
+#include "nn/fnv1a.h"
 #include "sim/retarget.h"
 
 namespace t2m::text2bfm {
@@ -65,11 +66,8 @@ std::string file_checksum(const std::string& path) {
   ss << f.rdbuf();
   // FNV-1a 64 over every byte. Not a CRC: a checkpoint ends with the CRC of its own bytes, and the CRC of a
   // message followed by its CRC is the same constant for every message.
-  uint64_t h = 1469598103934665603ull;
-  for (const unsigned char c : ss.str()) h = (h ^ c) * 1099511628211ull;
-  char hex[24];
-  std::snprintf(hex, sizeof hex, "%016llx", (unsigned long long)h);
-  return hex;
+  const std::string bytes = ss.str();
+  return nn::fnv1a_hex(nn::fnv1a64(bytes.data(), bytes.size(), nn::kFnv1aBfmOffset));
 }
 
 // Text2BFM Eq 2 over every clip of a split.
