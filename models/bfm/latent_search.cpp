@@ -99,7 +99,6 @@ std::vector<sim::PdResult> track_bfm_search(FbAgent& agent, std::shared_ptr<cons
     return standing && frame < opt.transition ? std::max(pd.fail_distance, opt.transition_fail_distance)
                                               : pd.fail_distance;
   };
-  const std::vector<double> rest((size_t)h->model()->nv, 0.0);
   const std::vector<int>& bodies = h->tracked_bodies();
   const size_t J = bodies.size();
   std::vector<std::unique_ptr<sim::Env>> envs;  // one per candidate
@@ -118,7 +117,7 @@ std::vector<sim::PdResult> track_bfm_search(FbAgent& agent, std::shared_ptr<cons
     const float* zt = z.data<float>();
     const sim::QposTrajectory traj = target.trajectory(c);
     if (standing)
-      body.reset(h->model()->qpos0, rest.data(), nullptr);
+      body.reset(nullptr, nullptr, nullptr);  // the model's defaults: qpos0 at rest
     else
       body.reset(traj.qpos.data(), traj.qvel.data(), nullptr);
     sim::TrackingScorer score(*h, traj, pd);

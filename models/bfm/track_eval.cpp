@@ -54,11 +54,10 @@ std::vector<sim::PdResult> track_bfm(FbAgent& agent, std::shared_ptr<const sim::
   std::vector<sim::QposTrajectory> traj(N);
   for (int c = 0; c < N; ++c) traj[c] = refs.trajectory(c);
   std::vector<float> obs((size_t)N * D);
-  const std::vector<double> rest((size_t)h->model()->nv, 0.0);
   for (int c = 0; c < N; ++c) {
     envs.push_back(std::make_unique<sim::Env>(h));
     if (start == TrackStart::standing)
-      envs[c]->reset(h->model()->qpos0, rest.data(), obs.data() + (size_t)c * D);
+      envs[c]->reset(nullptr, nullptr, obs.data() + (size_t)c * D);  // the model's defaults: qpos0 at rest
     else
       envs[c]->reset(traj[c].qpos.data(), traj[c].qvel.data(), obs.data() + (size_t)c * D);
     score.emplace_back(*h, traj[c], opt);
